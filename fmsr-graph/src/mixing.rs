@@ -362,6 +362,12 @@ impl<R: MixingRule + ?Sized> MixingRule for &R {
     }
 }
 
+impl<R: MixingRule + ?Sized> MixingRule for Box<R> {
+    fn mixing_matrix(&self, graph: &Graph) -> Result<MixingMatrix, GraphError> {
+        (**self).mixing_matrix(graph)
+    }
+}
+
 /// Metropolis-Hastings weights: `M[i][j] = 1 / (1 + max(d_i, d_j))` on each
 /// edge, `M[i][i] = 1 - sum_{j != i} M[i][j]`, 0 elsewhere. Only local degree
 /// information is needed; an isolated node keeps its own value.

@@ -260,3 +260,16 @@ fn consensus_graph_serde_checks_matrix_against_graph() {
     let back: Lazy<MetropolisHastings> = serde_json::from_str(&serde_json::to_string(&lazy).unwrap()).unwrap();
     assert_eq!(back, lazy);
 }
+
+#[test]
+fn rules_work_behind_references_and_boxes() {
+    let rules: Vec<Box<dyn MixingRule>> =
+        vec![Box::new(MetropolisHastings), Box::new(MaxDegree), Box::new(Lazy::new(MaxDegree, 0.3).unwrap())];
+    let graph = Graph::star(5, 2).unwrap();
+    for rule in &rules {
+        let m = rule.mixing_matrix(&graph).unwrap();
+        assert!(m.validate(&graph).is_ok());
+        assert!(ConsensusGraph::new(graph.clone(), rule).is_ok());
+        assert!(ConsensusGraph::new(graph.clone(), &rule.as_ref()).is_ok());
+    }
+}

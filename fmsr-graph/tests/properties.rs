@@ -93,7 +93,7 @@ fn graph_and_vectors() -> impl Strategy<Value = (RandomGraph, Vec<Vec<f32>>)> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(128))]
+    #![proptest_config(ProptestConfig::with_cases(256))]
 
     #[test]
     fn rules_give_symmetric_doubly_stochastic_matrices_on_the_graph(
