@@ -83,6 +83,16 @@ pub enum GraphError {
         /// Number of nodes of the graph.
         nodes: usize,
     },
+    /// More nodes than [`MAX_NODES`](crate::MAX_NODES) requested from
+    /// [`Graph::from_edges`](crate::Graph::from_edges) (and so from
+    /// deserialisation).
+    #[error("{nodes} nodes requested, at most {max} supported")]
+    TooManyNodes {
+        /// Requested number of nodes.
+        nodes: usize,
+        /// The limit.
+        max: usize,
+    },
     /// An edge from a node to itself.
     #[error("self-loop edge at node {node}")]
     SelfLoopEdge {

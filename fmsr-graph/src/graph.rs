@@ -10,6 +10,11 @@ use crate::GraphError;
 /// (node `i` of [`Graph::shadow_hand`] is `SHADOW_HAND_AGENTS[i]`).
 pub const SHADOW_HAND_AGENTS: [&str; 6] = ["wrist", "index", "middle", "ring", "little", "thumb"];
 
+/// The largest number of nodes [`Graph::from_edges`] (and deserialisation)
+/// accepts. A dense mixing matrix on this many nodes already holds 2^32
+/// entries.
+pub const MAX_NODES: usize = 1 << 16;
+
 /// An undirected graph on `n` nodes `0..n`, optionally with unique node names.
 ///
 /// Edges are stored normalised: each edge `(i, j)` has `i < j`, the list is
@@ -160,7 +165,9 @@ impl Graph {
     ///
     /// # Errors
     /// [`GraphError::NodeOutOfRange`] for an endpoint `>= n`,
-    /// [`GraphError::SelfLoopEdge`] for an edge `(i, i)`.
+    /// [`GraphError::SelfLoopEdge`] for an edge `(i, i)`,
+    /// [`GraphError::TooManyNodes`] if `n > MAX_NODES` (this guards
+    /// deserialisation against absurd sizes).
     ///
     /// ```
     /// use fmsr_graph::{Graph, GraphError};
@@ -172,6 +179,9 @@ impl Graph {
     /// ```
     #[must_use = "the graph is returned, not stored"]
     pub fn from_edges(n: usize, edges: &[(usize, usize)]) -> Result<Graph, GraphError> {
+        if n > MAX_NODES {
+            return Err(GraphError::TooManyNodes { nodes: n, max: MAX_NODES });
+        }
         let mut normalised = Vec::with_capacity(edges.len());
         for &(a, b) in edges {
             for node in [a, b] {

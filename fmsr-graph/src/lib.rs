@@ -88,7 +88,7 @@ mod mixing;
 
 pub use consensus::{ConsensusGraph, Mixer, average, disagreement};
 pub use error::GraphError;
-pub use graph::{Graph, SHADOW_HAND_AGENTS, Topology};
+pub use graph::{Graph, MAX_NODES, SHADOW_HAND_AGENTS, Topology};
 pub use mixing::{Lazy, MaxDegree, MetropolisHastings, MixingMatrix, MixingRule, UserMatrix};
 
 /// Absolute tolerance of matrix validation: row and column sums must be
@@ -98,7 +98,7 @@ pub const TOLERANCE: f64 = 1e-9;
 /// Everything needed for typical use: `use fmsr_graph::prelude::*;`.
 pub mod prelude {
     pub use crate::{
-        ConsensusGraph, Graph, GraphError, Lazy, MaxDegree, MetropolisHastings, Mixer, MixingMatrix, MixingRule,
-        SHADOW_HAND_AGENTS, TOLERANCE, Topology, UserMatrix, average, disagreement,
+        ConsensusGraph, Graph, GraphError, Lazy, MAX_NODES, MaxDegree, MetropolisHastings, Mixer, MixingMatrix,
+        MixingRule, SHADOW_HAND_AGENTS, TOLERANCE, Topology, UserMatrix, average, disagreement,
     };
 }

@@ -150,6 +150,10 @@ fn constructors_and_queries() {
     let names: Vec<String> = ["a", "b", "c", "b", "e"].map(String::from).to_vec();
     assert_eq!(g.with_names(names), Err(GraphError::DuplicateName { name: "b".into() }));
     assert_eq!(Graph::ring(3).graph(), Ok(Graph::ring(3)));
+    assert_eq!(
+        Graph::from_edges(MAX_NODES + 1, &[]),
+        Err(GraphError::TooManyNodes { nodes: MAX_NODES + 1, max: MAX_NODES })
+    );
 }
 
 #[test]
@@ -215,6 +219,7 @@ fn graph_serde_round_trip_and_validation() {
         r#"{"nodes":2,"names":["a"],"edges":[]}"#,
         r#"{"nodes":2,"names":["a","a"],"edges":[]}"#,
         r#"{"nodes":2,"edges":[],"extra":1}"#,
+        r#"{"nodes":1000000000000000000,"edges":[]}"#,
     ] {
         assert!(serde_json::from_str::<Graph>(bad).is_err(), "{bad}");
     }
