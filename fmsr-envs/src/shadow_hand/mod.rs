@@ -1,0 +1,517 @@
+//! The Shadow Hand block and egg rotation tasks (rotation about Z only) with
+//! 92 touch sensors, with gymnasium-robotics' semantics (DESIGN.md 4).
+//!
+//! The task ([`ShadowHand`]) is written against the small [`HandPhysics`] trait;
+//! [`RapierHand`] is the pure-Rust backend (the default), and a MuJoCo backend
+//! only has to implement the trait.
+//!
+//! - **Reset**: the model's initial state, the object rotated about Z by
+//!   `U(-pi, pi)` and moved by `N(0, 0.005)` per axis, then `settle_steps` (10)
+//!   steps at zero action. The goal is the object's position after settling and a
+//!   rotation about Z by `U(-pi, pi)`.
+//! - **Action**: `a` in `[-1, 1]^20` maps to `ctrl = mid + a * half_range` of each
+//!   actuator's `ctrlrange`; one step is `substeps` (20) physics steps of 0.002 s.
+//! - **Goals** are 7-dim (object position, quaternion `[w, x, y, z]` with `w >= 0`);
+//!   the goal distance is the angle between the achieved and desired rotation
+//!   about Z (yaw), wrapped to `[0, pi]`. Dense reward `-distance`, sparse `0` on
+//!   success and `-1` otherwise; success when `distance < success_threshold`
+//!   (0.1 in training, 0.4 in testing).
+//! - **Observation**: gymnasium's 153 values (24 hand qpos, 24 hand qvel, 6 object
+//!   qvel, 7 object pose, 92 touch) are the global view. The local view of each
+//!   agent is its own joints' positions and velocities, its own touch sensors,
+//!   and the object pose (7) and velocity (6).
+//! - **Features**: `safe_region` (object centre within `safe_radius` of the palm
+//!   centre) and `contacts` (at least `min_active_touch` = 10 of the 92 touch
+//!   sensors active).
+//! - **Drop**: the object centre below `drop_height` or farther than
+//!   `drop_distance` from the palm centre. Episodes are never terminated early
+//!   (gymnasium's semantics); the flag is in [`StepInfo::dropped`].
+
+pub mod assets;
+pub mod model;
+pub mod physics;
+pub mod rapier;
+
+use std::f64::consts::PI;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use fmsr_core::spec::{AgentSpec, EnvSpec, JointAction, Observation, RewardType, StepInfo, StepOutcome};
+use fmsr_core::{ContactReadout, Env, env::ObjectContacts};
+
+pub use self::assets::{HandAssets, fetch_hand_assets};
+pub use self::model::HandObject;
+use self::model::{ACTUATORS, AGENTS, HAND_JOINTS, NUM_TOUCH, PREFIX};
+pub use self::physics::HandPhysics;
+pub use self::rapier::{RapierHand, RapierHandModel, RapierSettings};
+use crate::error::EnvError;
+
+/// How touch readings enter the observations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum TouchObs {
+    /// `1` when the reading is positive, else `0` (gymnasium's `boolean`).
+    #[default]
+    Boolean,
+    /// The normal force in N (gymnasium's `sensordata`).
+    Continuous,
+    /// `ln(1 + force)` (gymnasium's `log`).
+    Log,
+}
+
+/// Settings of [`ShadowHand`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ShadowHandConfig {
+    /// Block (default) or egg.
+    pub object: HandObject,
+    /// Steps per episode (default 100).
+    pub episode_len: usize,
+    /// Physics steps per env step (default 20, i.e. 0.04 s at 0.002 s).
+    pub substeps: usize,
+    /// Steps at zero action after placing the object (default 10).
+    pub settle_steps: usize,
+    /// Standard deviation of the initial position noise per axis (m, default 0.005).
+    pub position_noise: f64,
+    /// Dense (default) or sparse task reward.
+    pub reward: RewardType,
+    /// Success threshold on the angle error (rad; 0.1 in training (default), 0.4 in testing).
+    pub success_threshold: f32,
+    /// `rho`: the `safe_region` radius around the palm centre (m, default 0.06).
+    pub safe_radius: f64,
+    /// `tau`: active touch sensors for the `contacts` feature (default 10).
+    pub min_active_touch: usize,
+    /// Touch readings above this force (N) count as active (default 0: any contact).
+    pub touch_threshold: f64,
+    /// How touch readings enter the observations (default boolean).
+    pub touch_obs: TouchObs,
+    /// The object is dropped below this height (m, default 0.1; it rests near 0.17).
+    pub drop_height: f64,
+    /// ... or farther than this from the palm centre (m, default 0.15).
+    pub drop_distance: f64,
+    /// Where the model is cached (default: `$FMSR_ASSETS_DIR` or `<workspace>/target/fmsr-assets`).
+    pub assets_dir: Option<PathBuf>,
+    /// Solver settings of the rapier backend.
+    pub rapier: RapierSettings,
+}
+
+impl Default for ShadowHandConfig {
+    fn default() -> Self {
+        Self {
+            object: HandObject::Block,
+            episode_len: 100,
+            substeps: 20,
+            settle_steps: 10,
+            position_noise: 0.005,
+            reward: RewardType::Dense,
+            success_threshold: 0.1,
+            safe_radius: 0.06,
+            min_active_touch: 10,
+            touch_threshold: 0.0,
+            touch_obs: TouchObs::Boolean,
+            drop_height: 0.1,
+            drop_distance: 0.15,
+            assets_dir: None,
+            rapier: RapierSettings::default(),
+        }
+    }
+}
+
+static MODELS: Mutex<Vec<((PathBuf, HandObject), Arc<RapierHandModel>)>> = Mutex::new(Vec::new());
+
+/// Loads (once per process, then shared) the rapier model of `object` from `assets`.
+pub fn load_rapier_model(assets: &HandAssets, object: HandObject) -> Result<Arc<RapierHandModel>, EnvError> {
+    let key = (assets.root.clone(), object);
+    let mut models = MODELS.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some((_, m)) = models.iter().find(|(k, _)| *k == key) {
+        return Ok(Arc::clone(m));
+    }
+    let model = Arc::new(RapierHandModel::load(assets, object)?);
+    models.push((key, Arc::clone(&model)));
+    Ok(model)
+}
+
+impl ShadowHandConfig {
+    /// The block task with the test success threshold 0.4.
+    #[must_use]
+    pub fn test_block() -> Self {
+        Self { success_threshold: 0.4, ..Self::default() }
+    }
+
+    /// Builds the rapier environment, fetching the model into the cache on first use.
+    ///
+    /// ```no_run
+    /// use fmsr_envs::shadow_hand::ShadowHandConfig;
+    /// use fmsr_core::Env;
+    /// let mut env = ShadowHandConfig::default().init().unwrap();
+    /// let obs = env.reset(0).unwrap();
+    /// assert_eq!(obs.global.len(), 153);
+    /// assert_eq!(env.spec().agents.len(), 6);
+    /// ```
+    pub fn init(self) -> Result<ShadowHand<RapierHand>, EnvError> {
+        self.check()?;
+        let assets = fetch_hand_assets(self.assets_dir.as_deref())?;
+        let model = load_rapier_model(&assets, self.object)?;
+        let physics = RapierHand::new(model, self.rapier)?;
+        self.init_with(physics)
+    }
+
+    /// Builds the task on any physics backend.
+    pub fn init_with<P: HandPhysics>(self, physics: P) -> Result<ShadowHand<P>, EnvError> {
+        self.check()?;
+        ShadowHand::new(self, physics)
+    }
+
+    fn check(&self) -> Result<(), EnvError> {
+        let bad = |key: &'static str, reason: String| Err(EnvError::InvalidConfig { key, reason });
+        if self.episode_len == 0 {
+            return bad("episode_len", "must be at least 1".into());
+        }
+        if self.substeps == 0 {
+            return bad("substeps", "must be at least 1".into());
+        }
+        let positive = |key: &'static str, v: f64| {
+            if v.is_finite() && v > 0.0 { Ok(()) } else { bad(key, format!("{v} must be positive and finite")) }
+        };
+        positive("success_threshold", f64::from(self.success_threshold))?;
+        positive("safe_radius", self.safe_radius)?;
+        positive("drop_distance", self.drop_distance)?;
+        if !(self.position_noise.is_finite() && self.position_noise >= 0.0) {
+            return bad("position_noise", format!("{} must be >= 0", self.position_noise));
+        }
+        if !self.drop_height.is_finite() || !(self.touch_threshold.is_finite() && self.touch_threshold >= 0.0) {
+            return bad("drop_height", "drop_height and touch_threshold must be finite (threshold >= 0)".into());
+        }
+        if self.min_active_touch > NUM_TOUCH {
+            return bad("min_active_touch", format!("at most {NUM_TOUCH}"));
+        }
+        Ok(())
+    }
+}
+
+/// Which joints, actuators and touch sensors an agent owns.
+#[derive(Debug, Clone)]
+struct AgentIndex {
+    joints: Vec<usize>,
+    touch: Vec<usize>,
+}
+
+/// Rotation about Z by `angle` as `[w, x, y, z]`.
+fn quat_z(angle: f64) -> [f64; 4] {
+    [(angle / 2.0).cos(), 0.0, 0.0, (angle / 2.0).sin()]
+}
+
+/// The rotation angle about Z of a quaternion `[w, x, y, z]` (yaw).
+fn yaw(q: &[f32]) -> f32 {
+    let (w, x, y, z) = (q[0], q[1], q[2], q[3]);
+    (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z))
+}
+
+/// `|a - b|` wrapped to `[0, pi]`.
+fn angle_between(a: f32, b: f32) -> f32 {
+    let d = (a - b).rem_euclid(std::f32::consts::TAU);
+    d.min(std::f32::consts::TAU - d)
+}
+
+fn normal(rng: &mut ChaCha8Rng) -> f64 {
+    // Box-Muller.
+    let u1: f64 = rng.random_range(f64::EPSILON..1.0);
+    let u2: f64 = rng.random();
+    (-2.0 * u1.ln()).sqrt() * (2.0 * PI * u2).cos()
+}
+
+/// The Shadow Hand rotation task; see the [module docs](self).
+#[derive(Debug)]
+pub struct ShadowHand<P: HandPhysics = RapierHand> {
+    config: ShadowHandConfig,
+    spec: EnvSpec,
+    physics: P,
+    agents: Vec<AgentIndex>,
+    goal: [f32; 7],
+    steps: Option<usize>,
+    qpos: Vec<f64>,
+    qvel: Vec<f64>,
+}
+
+impl<P: HandPhysics> ShadowHand<P> {
+    fn new(config: ShadowHandConfig, physics: P) -> Result<Self, EnvError> {
+        if physics.ctrl_range().len() != ACTUATORS.len() || physics.touch_names().len() != NUM_TOUCH {
+            return Err(EnvError::Model(format!(
+                "the physics has {} actuators and {} touch sensors, expected {} and {NUM_TOUCH}",
+                physics.ctrl_range().len(),
+                physics.touch_names().len(),
+                ACTUATORS.len()
+            )));
+        }
+        let touch_prefix = format!("{PREFIX}TS_");
+        let mut agents = Vec::new();
+        let mut specs = Vec::new();
+        let mut touch_owned = 0;
+        for part in AGENTS {
+            let slots: Vec<usize> =
+                (0..ACTUATORS.len()).filter(|&i| ACTUATORS[i].starts_with(part.joint_prefix)).collect();
+            let joints: Vec<usize> =
+                (0..HAND_JOINTS.len()).filter(|&i| HAND_JOINTS[i].starts_with(part.joint_prefix)).collect();
+            let touch: Vec<usize> = physics
+                .touch_names()
+                .iter()
+                .enumerate()
+                .filter(|(_, n)| {
+                    let stem = n.strip_prefix(&touch_prefix).unwrap_or(n);
+                    part.touch_prefixes.iter().any(|p| stem.starts_with(p))
+                })
+                .map(|(i, _)| i)
+                .collect();
+            touch_owned += touch.len();
+            specs.push(AgentSpec {
+                name: part.name.into(),
+                action_slots: slots,
+                local_obs_dim: 2 * joints.len() + touch.len() + 13,
+            });
+            agents.push(AgentIndex { joints, touch });
+        }
+        if touch_owned != NUM_TOUCH {
+            return Err(EnvError::Model(format!("{touch_owned} of {NUM_TOUCH} touch sensors belong to an agent")));
+        }
+        let spec = EnvSpec {
+            agents: specs,
+            action_dim: ACTUATORS.len(),
+            obs_dim: 2 * HAND_JOINTS.len() + 6 + 7 + NUM_TOUCH,
+            goal_dim: 7,
+            episode_len: config.episode_len,
+            features: vec!["safe_region".into(), "contacts".into()],
+            reward_range: match config.reward {
+                RewardType::Dense => (-std::f32::consts::PI, 0.0),
+                RewardType::Sparse => (-1.0, 0.0),
+            },
+        };
+        spec.validate()?;
+        Ok(Self {
+            config,
+            spec,
+            physics,
+            agents,
+            goal: [0.0; 7],
+            steps: None,
+            qpos: vec![0.0; HAND_JOINTS.len()],
+            qvel: vec![0.0; HAND_JOINTS.len()],
+        })
+    }
+
+    /// The settings.
+    #[must_use]
+    pub fn config(&self) -> &ShadowHandConfig {
+        &self.config
+    }
+
+    /// The physics backend.
+    #[must_use]
+    pub fn physics(&self) -> &P {
+        &self.physics
+    }
+
+    /// The physics backend, mutably (for tests and tools; the task does not see changes made here).
+    pub fn physics_mut(&mut self) -> &mut P {
+        &mut self.physics
+    }
+
+    /// Number of active touch sensors after the last step.
+    #[must_use]
+    pub fn active_touch_count(&self) -> usize {
+        self.physics.touch().iter().filter(|&&t| t > self.config.touch_threshold).count()
+    }
+
+    /// The current angle error about Z between the object and the goal (rad).
+    #[must_use]
+    pub fn angle_error(&self) -> f32 {
+        self.goal_distance(&self.achieved_goal(), &self.goal)
+    }
+
+    /// Distance of the object centre from the palm centre (m).
+    #[must_use]
+    pub fn palm_distance(&self) -> f64 {
+        let (p, _) = self.physics.object_pose();
+        let c = self.physics.palm_center();
+        ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt()
+    }
+
+    /// Maps an action in `[-1, 1]^20` to actuator controls.
+    #[must_use]
+    pub fn action_to_ctrl(&self, action: &[f32]) -> Vec<f64> {
+        self.physics
+            .ctrl_range()
+            .iter()
+            .zip(action)
+            .map(|(r, &a)| {
+                let (mid, half) = ((r[0] + r[1]) / 2.0, (r[1] - r[0]) / 2.0);
+                mid + f64::from(a.clamp(-1.0, 1.0)) * half
+            })
+            .collect()
+    }
+
+    fn achieved_goal(&self) -> [f32; 7] {
+        let (p, mut q) = self.physics.object_pose();
+        if q[0] < 0.0 {
+            q.iter_mut().for_each(|v| *v = -*v);
+        }
+        [p[0], p[1], p[2], q[0], q[1], q[2], q[3]].map(|v| v as f32)
+    }
+
+    fn touch_value(&self, t: f64) -> f32 {
+        match self.config.touch_obs {
+            TouchObs::Boolean => f32::from(u8::from(t > self.config.touch_threshold)),
+            TouchObs::Continuous => t as f32,
+            TouchObs::Log => t.ln_1p() as f32,
+        }
+    }
+
+    fn observation(&mut self) -> Result<Observation, EnvError> {
+        self.physics.hand_qpos(&mut self.qpos);
+        self.physics.hand_qvel(&mut self.qvel);
+        let object_qvel = self.physics.object_qvel();
+        let achieved = self.achieved_goal();
+        let touch: Vec<f32> = self.physics.touch().iter().map(|&t| self.touch_value(t)).collect();
+        let mut global = Vec::with_capacity(self.spec.obs_dim);
+        global.extend(self.qpos.iter().map(|&v| v as f32));
+        global.extend(self.qvel.iter().map(|&v| v as f32));
+        global.extend(object_qvel.iter().map(|&v| v as f32));
+        global.extend_from_slice(&achieved);
+        global.extend_from_slice(&touch);
+        if let Some(i) = global.iter().position(|v| !v.is_finite()) {
+            return Err(EnvError::Diverged(format!("observation entry {i} is {}", global[i])));
+        }
+        let locals = self
+            .agents
+            .iter()
+            .map(|a| {
+                let mut local = Vec::with_capacity(2 * a.joints.len() + a.touch.len() + 13);
+                local.extend(a.joints.iter().map(|&j| self.qpos[j] as f32));
+                local.extend(a.joints.iter().map(|&j| self.qvel[j] as f32));
+                local.extend(a.touch.iter().map(|&t| touch[t]));
+                local.extend_from_slice(&achieved);
+                local.extend(object_qvel.iter().map(|&v| v as f32));
+                local
+            })
+            .collect();
+        Ok(Observation { global, locals, achieved_goal: achieved.to_vec(), desired_goal: self.goal.to_vec() })
+    }
+}
+
+impl<P: HandPhysics> Env for ShadowHand<P> {
+    type Error = EnvError;
+
+    fn spec(&self) -> &EnvSpec {
+        &self.spec
+    }
+
+    fn reset(&mut self, seed: u64) -> Result<Observation, EnvError> {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        self.physics.reset();
+        let (p0, _) = self.physics.object_pose();
+        let angle = rng.random_range(-PI..PI);
+        let noise = self.config.position_noise;
+        let pos =
+            [p0[0] + noise * normal(&mut rng), p0[1] + noise * normal(&mut rng), p0[2] + noise * normal(&mut rng)];
+        self.physics.set_object_pose(pos, quat_z(angle));
+        let mid = self.action_to_ctrl(&[0.0; 20]);
+        self.physics.set_ctrl(&mid);
+        for _ in 0..self.config.settle_steps {
+            self.physics.step(self.config.substeps);
+        }
+        let goal_angle = rng.random_range(-PI..PI);
+        let (p, _) = self.physics.object_pose();
+        let q = quat_z(goal_angle);
+        let q = if q[0] < 0.0 { q.map(|v| -v) } else { q };
+        self.goal = [p[0], p[1], p[2], q[0], q[1], q[2], q[3]].map(|v| v as f32);
+        self.steps = Some(0);
+        self.observation()
+    }
+
+    fn step(&mut self, action: &JointAction) -> Result<StepOutcome, EnvError> {
+        action.validate(&self.spec)?;
+        let steps = self.steps.ok_or(EnvError::NotReset)? + 1;
+        let ctrl = self.action_to_ctrl(action.as_slice());
+        self.physics.set_ctrl(&ctrl);
+        self.physics.step(self.config.substeps);
+        self.steps = Some(steps);
+        let observation = self.observation()?;
+        let c = &self.config;
+        let distance = self.goal_distance(&observation.achieved_goal, &observation.desired_goal);
+        let palm_distance = self.palm_distance();
+        let (p, _) = self.physics.object_pose();
+        let info = StepInfo {
+            is_success: distance < c.success_threshold,
+            features: vec![
+                f32::from(u8::from(palm_distance < c.safe_radius)),
+                f32::from(u8::from(self.active_touch_count() >= c.min_active_touch)),
+            ],
+            dropped: p[2] < c.drop_height || palm_distance > c.drop_distance,
+        };
+        Ok(StepOutcome {
+            observation,
+            reward: c.reward.reward(distance, c.success_threshold),
+            terminated: false,
+            truncated: steps >= c.episode_len,
+            info,
+        })
+    }
+
+    fn goal_distance(&self, achieved: &[f32], desired: &[f32]) -> f32 {
+        if achieved.len() < 7 || desired.len() < 7 {
+            return f32::NAN;
+        }
+        angle_between(yaw(&achieved[3..7]), yaw(&desired[3..7]))
+    }
+
+    fn goal_reward(&self, achieved: &[f32], desired: &[f32]) -> f32 {
+        self.config.reward.reward(self.goal_distance(achieved, desired), self.config.success_threshold)
+    }
+}
+
+impl<P: HandPhysics> ContactReadout for ShadowHand<P> {
+    fn object_contacts(&self) -> ObjectContacts {
+        let mut contacts = self.physics.object_contacts();
+        contacts.active_touch_sensors = self.active_touch_count();
+        contacts
+    }
+}
+
+/// Steps each env with its action, in parallel over rayon's thread pool.
+pub fn step_batch<P: HandPhysics + Send>(
+    envs: &mut [ShadowHand<P>],
+    actions: &[JointAction],
+) -> Vec<Result<StepOutcome, EnvError>> {
+    envs.par_iter_mut().zip(actions.par_iter()).map(|(env, a)| env.step(a)).collect()
+}
+
+/// Resets each env with its seed, in parallel.
+pub fn reset_batch<P: HandPhysics + Send>(
+    envs: &mut [ShadowHand<P>],
+    seeds: &[u64],
+) -> Vec<Result<Observation, EnvError>> {
+    envs.par_iter_mut().zip(seeds.par_iter()).map(|(env, &s)| env.reset(s)).collect()
+}
+
+#[allow(dead_code)]
+fn _assert_send() {
+    fn send<T: Send>() {}
+    send::<ShadowHand<RapierHand>>();
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn yaw_distance_wraps() {
+        let a = quat_z(3.0).map(|v| v as f32);
+        let b = quat_z(-3.0).map(|v| v as f32);
+        assert!((angle_between(yaw(&a), yaw(&b)) - (std::f32::consts::TAU - 6.0)).abs() < 1e-4);
+        assert!((yaw(&quat_z(0.7).map(|v| v as f32)) - 0.7).abs() < 1e-5);
+    }
+}

@@ -1,0 +1,152 @@
+//! Facts of the Shadow Hand model shared by every physics backend, and the
+//! MJCF preprocessing (include inlining) our rapier loader needs.
+
+use std::fs;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::EnvError;
+
+/// The manipulated object.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum HandObject {
+    /// The 5 cm cube (`manipulate_block_touch_sensors.xml`).
+    #[default]
+    Block,
+    /// The ellipsoid egg (`manipulate_egg_touch_sensors.xml`).
+    Egg,
+}
+
+impl HandObject {
+    /// The object name in the scene file names (`block`, `egg`).
+    #[must_use]
+    pub fn file_stem(self) -> &'static str {
+        match self {
+            HandObject::Block => "block",
+            HandObject::Egg => "egg",
+        }
+    }
+}
+
+/// The 24 hand joints in MuJoCo's `qpos` order.
+pub const HAND_JOINTS: [&str; 24] = [
+    "WRJ1", "WRJ0", "FFJ3", "FFJ2", "FFJ1", "FFJ0", "MFJ3", "MFJ2", "MFJ1", "MFJ0", "RFJ3", "RFJ2", "RFJ1", "RFJ0",
+    "LFJ4", "LFJ3", "LFJ2", "LFJ1", "LFJ0", "THJ4", "THJ3", "THJ2", "THJ1", "THJ0",
+];
+
+/// The 20 actuators in the model's order (each drives the joint of the same suffix).
+pub const ACTUATORS: [&str; 20] = [
+    "WRJ1", "WRJ0", "FFJ3", "FFJ2", "FFJ1", "MFJ3", "MFJ2", "MFJ1", "RFJ3", "RFJ2", "RFJ1", "LFJ4", "LFJ3", "LFJ2",
+    "LFJ1", "THJ4", "THJ3", "THJ2", "THJ1", "THJ0",
+];
+
+/// Name prefix of the model's joints, bodies, sites and actuators.
+pub const PREFIX: &str = "robot0:";
+
+/// One agent of the hand (DESIGN.md 3.1): its name, the joint-name prefix of
+/// the joints it owns and the touch-sensor name stems it reads.
+#[derive(Debug, Clone, Copy)]
+pub struct AgentPart {
+    /// The agent name used by `fmsr-core` (e.g. for the reward assignment).
+    pub name: &'static str,
+    /// Prefix of its joint and actuator names (`WR`, `FF`, ...).
+    pub joint_prefix: &'static str,
+    /// Touch sensors whose name (after `robot0:TS_`) starts with one of these are its own.
+    pub touch_prefixes: &'static [&'static str],
+}
+
+/// The six agents in order: wrist, index, middle, ring, little, thumb.
+pub const AGENTS: [AgentPart; 6] = [
+    AgentPart { name: "wrist", joint_prefix: "WR", touch_prefixes: &["palm"] },
+    AgentPart { name: "index", joint_prefix: "FF", touch_prefixes: &["ff"] },
+    AgentPart { name: "middle", joint_prefix: "MF", touch_prefixes: &["mf"] },
+    AgentPart { name: "ring", joint_prefix: "RF", touch_prefixes: &["rf"] },
+    AgentPart { name: "little", joint_prefix: "LF", touch_prefixes: &["lf"] },
+    AgentPart { name: "thumb", joint_prefix: "TH", touch_prefixes: &["th"] },
+];
+
+/// Number of touch sensors of the model.
+pub const NUM_TOUCH: usize = 92;
+
+/// Reads `path` and replaces every `<include file="..."/>` (anywhere: top level,
+/// inside `<worldbody>` or `<asset>`) by the contents of the included file's
+/// `<mujoco>` element, recursively. `rapier3d-mjcf` 0.36 only resolves
+/// top-level includes.
+pub fn inline_includes(path: &Path) -> Result<String, EnvError> {
+    inline_rec(path, 0)
+}
+
+fn inline_rec(path: &Path, depth: usize) -> Result<String, EnvError> {
+    if depth > 16 {
+        return Err(EnvError::Model(format!("include nesting too deep at {}", path.display())));
+    }
+    let text =
+        fs::read_to_string(path).map_err(|source| EnvError::Io { what: "reading", path: path.into(), source })?;
+    let dir = path.parent().unwrap_or_else(|| Path::new("."));
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text.as_str();
+    while let Some(start) = rest.find("<include") {
+        out.push_str(&rest[..start]);
+        let tail = &rest[start..];
+        let close =
+            tail.find('>').ok_or_else(|| EnvError::Model(format!("unclosed <include> in {}", path.display())))?;
+        let tag = &tail[..=close];
+        let mut after = &tail[close + 1..];
+        if !tag.ends_with("/>") {
+            let end = after
+                .find("</include>")
+                .ok_or_else(|| EnvError::Model(format!("missing </include> in {}", path.display())))?;
+            after = &after[end + "</include>".len()..];
+        }
+        let file = attribute(tag, "file")
+            .ok_or_else(|| EnvError::Model(format!("<include> without file in {}", path.display())))?;
+        let inner = inline_rec(&dir.join(file), depth + 1)?;
+        out.push_str(mujoco_body(&inner).ok_or_else(|| EnvError::Model(format!("{file}: no <mujoco> element")))?);
+        rest = after;
+    }
+    out.push_str(rest);
+    if depth == 0 {
+        return Ok(out);
+    }
+    Ok(out)
+}
+
+/// The value of `name="..."` in one tag.
+fn attribute<'a>(tag: &'a str, name: &str) -> Option<&'a str> {
+    let key = format!("{name}=\"");
+    let start = tag.find(&key)? + key.len();
+    let len = tag[start..].find('"')?;
+    Some(&tag[start..start + len])
+}
+
+/// What lies between `<mujoco ...>` and `</mujoco>`.
+fn mujoco_body(text: &str) -> Option<&str> {
+    let open = text.find("<mujoco")?;
+    let body_start = open + text[open..].find('>')? + 1;
+    let end = text.rfind("</mujoco>")?;
+    (end >= body_start).then(|| &text[body_start..end])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn includes_are_inlined_everywhere() {
+        let dir = std::env::temp_dir().join(format!("fmsr-inline-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        fs::write(
+            dir.join("a.xml"),
+            "<?xml version=\"1.0\"?>\n<mujoco><body name=\"b\"><include file=\"c.xml\"/></body></mujoco>",
+        )
+        .unwrap();
+        fs::write(dir.join("c.xml"), "<mujoco model=\"x\"><geom name=\"g\"/></mujoco>").unwrap();
+        fs::write(dir.join("main.xml"), "<mujoco><worldbody><include file=\"a.xml\"></include></worldbody></mujoco>")
+            .unwrap();
+        let text = inline_includes(&dir.join("main.xml")).unwrap();
+        assert_eq!(text, "<mujoco><worldbody><body name=\"b\"><geom name=\"g\"/></body></worldbody></mujoco>");
+        fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,627 @@
+//! The rapier3d backend of the Shadow Hand: `rapier3d-mjcf` loads the model,
+//! and this module fixes what it leaves out (DESIGN.md 4):
+//!
+//! - **includes** inside `<worldbody>`/`<asset>` are inlined first ([`super::model::inline_includes`]);
+//! - **contact filtering** follows MuJoCo's `(contype1 & conaffinity2) || (contype2 & conaffinity1)`:
+//!   the distinct `(contype, conaffinity)` classes of the model's geoms get one
+//!   collision-group bit each, and each class's filter holds the classes it collides
+//!   with under MuJoCo's rule. A symmetric relation over at most 32 classes is encoded
+//!   exactly by rapier's AND test, so no physics hook runs (contact recycling stays on);
+//! - the **J1/J0 coupling**: the loader couples the two joints of the `T_xxJ1c`
+//!   tendon as co-actuated (`q_k = (c_k / c_0) q_0`), which gives the distal joint
+//!   the wrong sign. That tendon is a length constraint (range +-0.001), so the
+//!   coupling is `c_0 q_0 + c_k q_k = 0`, i.e. `q_k = -(c_0 / c_k) q_0`; we rewrite
+//!   every coupling whose tendon has coefficients of opposite sign that way;
+//! - the **target** body is a ghost: it gets no collider and is fixed;
+//! - the **object's** mass and inertia are set explicitly to MuJoCo's (box: from
+//!   its density 567; egg: the solid ellipsoid of density 1000, collided as the
+//!   loader's convex icosphere hull), and its free-joint damping 0.01 becomes
+//!   rapier body damping `0.01 / m` (linear) and `0.01 / I` (angular);
+//! - **touch sensors**: each `robot0:TS_*` site box on its body reads the summed
+//!   normal force (impulse / dt) of the object's contact points inside it, averaged
+//!   over the substeps of one [`HandPhysics::step`].
+//!
+//! Not modelled: the 19 `<contact><pair>` finger-finger/finger-thumb pairs of
+//! `shared.xml` (hand geoms never collide with each other here), tendon limits
+//! other than the J1/J0 coupling, MuJoCo's soft-contact `solref`/`solimp`.
+
+use std::collections::HashMap;
+use std::path::Path;
+use std::sync::Arc;
+
+use rapier3d::math::{Pose, Real, Rotation, Vector};
+use rapier3d::prelude::*;
+use rapier3d_mjcf::{MjcfLoaderOptions, MjcfMultibodyOptions, MjcfRobot, MjcfRobotHandles};
+use serde::{Deserialize, Serialize};
+
+use fmsr_core::env::{ContactPoint, ObjectContacts};
+
+use super::assets::HandAssets;
+use super::model::{ACTUATORS, HAND_JOINTS, HandObject, NUM_TOUCH, PREFIX, inline_includes};
+use super::physics::HandPhysics;
+use crate::error::EnvError;
+
+/// Solver settings of the rapier backend (the speed/fidelity trade-off; see
+/// the crate's settings table).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RapierSettings {
+    /// Physics timestep (s); MuJoCo's model uses 0.002.
+    pub timestep: f64,
+    /// `IntegrationParameters::num_solver_iterations` (rapier's substeps).
+    pub solver_iterations: usize,
+    /// `IntegrationParameters::num_internal_pgs_iterations`.
+    pub pgs_iterations: usize,
+    /// `IntegrationParameters::num_internal_stabilization_iterations`.
+    pub stabilization_iterations: usize,
+    /// Distance below which contacts are predicted (m).
+    pub prediction_distance: f64,
+    /// Reuse contacts of pairs that barely moved (`IntegrationParameters::contact_recycling`).
+    pub contact_recycling: bool,
+}
+
+impl Default for RapierSettings {
+    fn default() -> Self {
+        Self {
+            timestep: 0.002,
+            solver_iterations: 2,
+            pgs_iterations: 1,
+            stabilization_iterations: 1,
+            prediction_distance: 0.002,
+            contact_recycling: true,
+        }
+    }
+}
+
+/// One touch sensor: a box on a body.
+#[derive(Debug, Clone)]
+struct TouchSite {
+    /// Rapier body index in `MjcfRobot::bodies`.
+    body: usize,
+    /// The site's pose in the body frame.
+    pose: Pose,
+    half: Vector,
+}
+
+/// The model loaded from disk once; shared by every env built from it.
+#[derive(Debug)]
+pub struct RapierHandModel {
+    robot: MjcfRobot,
+    object: HandObject,
+    /// `MjcfRobot::joints` index of each of [`HAND_JOINTS`].
+    joints: Vec<usize>,
+    ctrl_range: Vec<[f64; 2]>,
+    touch_names: Vec<String>,
+    touch_sites: Vec<TouchSite>,
+    object_body: usize,
+    object_pos0: Vector,
+    palm_body: usize,
+    palm_center_local: Vector,
+    /// Collision groups per (body index, collider index in body).
+    groups: HashMap<(usize, usize), InteractionGroups>,
+    gravity: Vector,
+}
+
+fn name_of(s: &str) -> String {
+    format!("{PREFIX}{s}")
+}
+
+impl RapierHandModel {
+    /// Loads the scene of `object` from the fetched assets and applies our fixes.
+    pub fn load(assets: &HandAssets, object: HandObject) -> Result<Self, EnvError> {
+        let scene = assets.scene(object.file_stem());
+        let xml = inline_includes(&scene)?;
+        let base = assets.hand_dir();
+        Self::from_xml(&xml, &base, object)
+    }
+
+    fn from_xml(xml: &str, base: &Path, object: HandObject) -> Result<Self, EnvError> {
+        let options = MjcfLoaderOptions::default();
+        let (mut robot, model) =
+            MjcfRobot::from_str(xml, options, base).map_err(|e| EnvError::Model(format!("rapier3d-mjcf: {e:#}")))?;
+        let missing = |what: &str, name: &str| EnvError::Model(format!("no {what} named {name}"));
+
+        // Hand joints in MuJoCo's qpos order.
+        let joints = HAND_JOINTS
+            .iter()
+            .map(|j| robot.joint_name_to_idx.get(&name_of(j)).copied().ok_or_else(|| missing("joint", &name_of(j))))
+            .collect::<Result<Vec<_>, _>>()?;
+
+        // Actuators: the 20 position servos.
+        if robot.actuators.len() != ACTUATORS.len() {
+            return Err(EnvError::Model(format!("{} actuators, expected {}", robot.actuators.len(), ACTUATORS.len())));
+        }
+        let mut ctrl_range = Vec::with_capacity(ACTUATORS.len());
+        for (binding, expected) in robot.actuators.iter().zip(ACTUATORS) {
+            let a = &binding.actuator;
+            if a.name.as_deref() != Some(&format!("{PREFIX}A_{expected}")) || binding.joint_index.is_none() {
+                return Err(EnvError::Model(format!("actuator {:?} is not A_{expected} on a joint", a.name)));
+            }
+            let range = a.ctrl_range.ok_or_else(|| EnvError::Model(format!("{:?} has no ctrlrange", a.name)))?;
+            ctrl_range.push([range[0], range[1]]);
+        }
+
+        // J1/J0 coupling sign (see the module docs).
+        for c in &mut robot.joint_couplings {
+            let (Some(n1), Some(n2)) = (robot.joints[c.joint1].name.as_deref(), robot.joints[c.joint2].name.as_deref())
+            else {
+                continue;
+            };
+            let tendon = model
+                .tendons
+                .iter()
+                .find(|t| t.joints.iter().any(|tj| tj.joint == n1) && t.joints.iter().any(|tj| tj.joint == n2));
+            if let Some(t) = tendon {
+                let coef = |n: &str| t.joints.iter().find(|tj| tj.joint == n).map_or(0.0, |tj| tj.coef);
+                let (c1, c2) = (coef(n1), coef(n2));
+                if c1 * c2 < 0.0 {
+                    c.coeff = (-(c1 / c2)) as Real;
+                }
+            }
+        }
+
+        // Sites and geoms by name, from the parsed model.
+        let mut sites = HashMap::new();
+        let mut geom_classes = HashMap::new();
+        for entry in &model.bodies {
+            let body_name = entry.body.name.clone().unwrap_or_default();
+            for s in &entry.body.sites {
+                if let Some(n) = &s.name {
+                    sites.insert(n.clone(), (body_name.clone(), s.clone()));
+                }
+            }
+            for g in &entry.body.geoms {
+                if let Some(n) = &g.name {
+                    geom_classes.insert(n.clone(), (g.contype, g.conaffinity));
+                }
+            }
+        }
+
+        // Touch sensors: the 92 `robot0:TS_*` (shared.xml's 5 fingertip `ST_Tch_*` are not among them).
+        let mut touch_names = Vec::new();
+        let mut touch_sites = Vec::new();
+        for s in model.sensors.iter().filter(|s| s.kind == "touch") {
+            let Some(name) = s.name.clone().filter(|n| n.starts_with(&format!("{PREFIX}TS_"))) else { continue };
+            let site_name = s.objname.clone().ok_or_else(|| missing("site of touch sensor", &name))?;
+            let (body_name, site) = sites.get(&site_name).ok_or_else(|| missing("site", &site_name))?;
+            let body = *robot.body_name_to_idx.get(body_name).ok_or_else(|| missing("body", body_name))?;
+            let t = site.pose.translation;
+            let q = site.pose.rotation;
+            touch_sites.push(TouchSite {
+                body,
+                pose: Pose::from_parts(
+                    Vector::new(t.x as Real, t.y as Real, t.z as Real),
+                    Rotation::from_xyzw(q.x as Real, q.y as Real, q.z as Real, q.w as Real).normalize(),
+                ),
+                half: Vector::new(site.size[0] as Real, site.size[1] as Real, site.size[2] as Real),
+            });
+            touch_names.push(name);
+        }
+        if touch_names.len() != NUM_TOUCH {
+            return Err(EnvError::Model(format!("{} touch sensors, expected {NUM_TOUCH}", touch_names.len())));
+        }
+
+        // Contact classes (see the module docs).
+        let mut classes: Vec<(u32, u32)> = Vec::new();
+        let mut collider_class = HashMap::new();
+        for (geom, &(body, col)) in &robot.geom_name_to_collider {
+            let Some(&(ct, ca)) = geom_classes.get(geom) else { continue };
+            let (ct, ca) = (ct as u32, ca as u32);
+            let k = classes.iter().position(|&c| c == (ct, ca)).unwrap_or_else(|| {
+                classes.push((ct, ca));
+                classes.len() - 1
+            });
+            collider_class.insert((body, col), k);
+        }
+        // The ground we add is MuJoCo's default plane geom: contype = conaffinity = 1.
+        let ground_class = classes.iter().position(|&c| c == (1, 1)).unwrap_or_else(|| {
+            classes.push((1, 1));
+            classes.len() - 1
+        });
+        if classes.len() > 31 {
+            return Err(EnvError::Model(format!("{} contact classes, at most 31 supported", classes.len())));
+        }
+        let collide = |a: (u32, u32), b: (u32, u32)| (a.0 & b.1) != 0 || (b.0 & a.1) != 0;
+        let class_groups: Vec<InteractionGroups> = classes
+            .iter()
+            .map(|&a| {
+                let member = 1u32 << classes.iter().position(|&c| c == a).unwrap_or(0);
+                let filter = classes
+                    .iter()
+                    .enumerate()
+                    .filter(|&(_, &b)| collide(a, b))
+                    .fold(0u32, |acc, (j, _)| acc | (1 << j));
+                InteractionGroups::new(Group::from(member), Group::from(filter), InteractionTestMode::And)
+            })
+            .collect();
+        let mut groups: HashMap<(usize, usize), InteractionGroups> =
+            collider_class.into_iter().map(|(key, k)| (key, class_groups[k])).collect();
+        groups.insert((usize::MAX, 0), class_groups[ground_class]);
+
+        // Target: a ghost.
+        let target = *robot.body_name_to_idx.get("target").ok_or_else(|| missing("body", "target"))?;
+        robot.bodies[target].colliders.clear();
+        let target_pose = *robot.bodies[target].body.position();
+        robot.bodies[target].body = RigidBodyBuilder::fixed().pose(target_pose).build();
+
+        // Object: MuJoCo's mass, inertia and damping.
+        let object_body = *robot.body_name_to_idx.get("object").ok_or_else(|| missing("body", "object"))?;
+        let (mass, inertia) = match object {
+            // Box of side 0.05 m and density 567 kg/m^3.
+            HandObject::Block => {
+                let m = 567.0 * 0.05f64.powi(3);
+                (m, [m * (0.05f64.powi(2) * 2.0) / 12.0; 3])
+            }
+            // Solid ellipsoid of semi-axes (0.03, 0.03, 0.04), density 1000 kg/m^3.
+            HandObject::Egg => {
+                let (a, b, c) = (0.03f64, 0.03f64, 0.04f64);
+                let m = 1000.0 * 4.0 / 3.0 * std::f64::consts::PI * a * b * c;
+                (m, [m * (b * b + c * c) / 5.0, m * (a * a + c * c) / 5.0, m * (a * a + b * b) / 5.0])
+            }
+        };
+        let obj = &mut robot.bodies[object_body];
+        for c in &mut obj.colliders {
+            c.set_density(0.0);
+        }
+        obj.body.set_additional_mass_properties(
+            MassProperties::new(
+                Vector::ZERO,
+                mass as Real,
+                Vector::new(inertia[0] as Real, inertia[1] as Real, inertia[2] as Real),
+            ),
+            false,
+        );
+        obj.body.set_linear_damping((0.01 / mass) as Real);
+        let mean_inertia = (inertia[0] + inertia[1] + inertia[2]) / 3.0;
+        obj.body.set_angular_damping((0.01 / mean_inertia) as Real);
+        let object_pos0 = obj.body.translation();
+
+        // Palm centre: the centroid of the palm's touch sites, in the palm frame.
+        let palm_body = *robot.body_name_to_idx.get(&name_of("palm")).ok_or_else(|| missing("body", "palm"))?;
+        let palm_sites: Vec<&TouchSite> = touch_sites.iter().filter(|s| s.body == palm_body).collect();
+        let palm_center_local = if palm_sites.is_empty() {
+            Vector::ZERO
+        } else {
+            palm_sites.iter().map(|s| s.pose.translation).sum::<Vector>() / palm_sites.len() as Real
+        };
+
+        let gravity = robot.gravity;
+        Ok(Self {
+            robot,
+            object,
+            joints,
+            ctrl_range,
+            touch_names,
+            touch_sites,
+            object_body,
+            object_pos0,
+            palm_body,
+            palm_center_local,
+            groups,
+            gravity,
+        })
+    }
+
+    /// Which object the scene holds.
+    #[must_use]
+    pub fn object(&self) -> HandObject {
+        self.object
+    }
+
+    /// Number of hand joints found (24).
+    #[must_use]
+    pub fn num_hand_joints(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// The object's initial position in the model.
+    #[must_use]
+    pub fn object_initial_position(&self) -> [f64; 3] {
+        let p = self.object_pos0;
+        [f64::from(p.x), f64::from(p.y), f64::from(p.z)]
+    }
+}
+
+/// The rapier3d Shadow Hand scene; see the [module docs](self).
+pub struct RapierHand {
+    model: Arc<RapierHandModel>,
+    settings: RapierSettings,
+    world: PhysicsWorld,
+    handles: MjcfRobotHandles<Option<MultibodyJointHandle>>,
+    /// Rapier body handle per `MjcfRobot::bodies` index (`None` for the world).
+    body_handles: Vec<Option<RigidBodyHandle>>,
+    /// Sensors on each body.
+    sensors_of_body: HashMap<RigidBodyHandle, Vec<usize>>,
+    object: RigidBodyHandle,
+    object_collider: ColliderHandle,
+    palm: RigidBodyHandle,
+    /// (multibody joint handle, free axis) of each hand joint.
+    joint_dofs: Vec<(MultibodyJointHandle, usize)>,
+    ctrl: Vec<Real>,
+    touch_sum: Vec<f64>,
+    touch: Vec<f64>,
+}
+
+impl std::fmt::Debug for RapierHand {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RapierHand").field("object", &self.model.object).field("settings", &self.settings).finish()
+    }
+}
+
+impl RapierHand {
+    /// Builds the scene from a loaded model.
+    pub fn new(model: Arc<RapierHandModel>, settings: RapierSettings) -> Result<Self, EnvError> {
+        if !(settings.timestep.is_finite() && settings.timestep > 0.0) || settings.solver_iterations == 0 {
+            return Err(EnvError::InvalidConfig {
+                key: "rapier",
+                reason: "timestep must be positive and solver_iterations at least 1".into(),
+            });
+        }
+        let mut hand = Self::build(model, settings);
+        hand.reset();
+        Ok(hand)
+    }
+
+    fn build(model: Arc<RapierHandModel>, settings: RapierSettings) -> Self {
+        let mut world = PhysicsWorld::new();
+        world.gravity = model.gravity;
+        let p = &mut world.integration_parameters;
+        p.dt = settings.timestep as Real;
+        p.num_solver_iterations = settings.solver_iterations;
+        p.num_internal_pgs_iterations = settings.pgs_iterations;
+        p.num_internal_stabilization_iterations = settings.stabilization_iterations;
+        p.normalized_prediction_distance = settings.prediction_distance as Real;
+        p.contact_recycling = settings.contact_recycling;
+        // Contacts are read from the manifolds (touch sensors, read-out).
+        p.contact_clustering = false;
+        let handles = model.robot.clone().insert_using_multibody_joints(
+            &mut world.bodies,
+            &mut world.colliders,
+            &mut world.multibody_joints,
+            &mut world.impulse_joints,
+            MjcfMultibodyOptions::default(),
+        );
+        let body_handles: Vec<Option<RigidBodyHandle>> =
+            handles.bodies.iter().map(|b| b.as_ref().map(|b| b.body)).collect();
+        for (bi, b) in handles.bodies.iter().enumerate() {
+            let Some(b) = b else { continue };
+            for (ci, c) in b.colliders.iter().enumerate() {
+                if let (Some(g), Some(col)) = (model.groups.get(&(bi, ci)), world.colliders.get_mut(c.handle)) {
+                    col.set_collision_groups(*g);
+                }
+            }
+        }
+        // Ground plane at z = 0 (the scene's floor, which the loader skips).
+        let ground = world.bodies.insert(RigidBodyBuilder::fixed());
+        let ground_groups = model.groups[&(usize::MAX, 0)];
+        world.colliders.insert_with_parent(
+            ColliderBuilder::cuboid(5.0, 5.0, 0.5)
+                .translation(Vector::new(1.0, 1.0, -0.5))
+                .collision_groups(ground_groups),
+            ground,
+            &mut world.bodies,
+        );
+        let mut sensors_of_body: HashMap<RigidBodyHandle, Vec<usize>> = HashMap::new();
+        for (i, s) in model.touch_sites.iter().enumerate() {
+            if let Some(h) = body_handles[s.body] {
+                sensors_of_body.entry(h).or_default().push(i);
+            }
+        }
+        let object = body_handles[model.object_body].expect("object body is inserted");
+        let object_collider = handles.bodies[model.object_body]
+            .as_ref()
+            .and_then(|b| b.colliders.first())
+            .map(|c| c.handle)
+            .expect("object has a collider");
+        let palm = body_handles[model.palm_body].expect("palm body is inserted");
+        let joint_dofs = model
+            .joints
+            .iter()
+            .map(|&j| {
+                let h = handles.joints[j].joint.expect("hand joints are multibody joints");
+                let (mb, link) = world.multibody_joints.get(h).expect("joint exists");
+                let locked = mb.link(link).expect("link exists").joint().data.locked_axes.bits();
+                let axis = (0..6).find(|a| locked & (1 << a) == 0).unwrap_or(3);
+                (h, axis)
+            })
+            .collect();
+        let n_act = model.ctrl_range.len();
+        Self {
+            settings,
+            world,
+            handles,
+            body_handles,
+            sensors_of_body,
+            object,
+            object_collider,
+            palm,
+            joint_dofs,
+            ctrl: vec![0.0; n_act],
+            touch_sum: vec![0.0; NUM_TOUCH],
+            touch: vec![0.0; NUM_TOUCH],
+            model,
+        }
+    }
+
+    /// The settings in use.
+    #[must_use]
+    pub fn settings(&self) -> RapierSettings {
+        self.settings
+    }
+
+    /// The rapier world (read-only), e.g. for rendering or inspection.
+    #[must_use]
+    pub fn world(&self) -> &PhysicsWorld {
+        &self.world
+    }
+
+    /// Calls `f(point, normal into the object, normal impulse, other body)` for
+    /// every active contact point of the object.
+    fn for_each_object_contact(&self, mut f: impl FnMut(Vector, Vector, Real, Option<RigidBodyHandle>)) {
+        let colliders = &self.world.colliders;
+        for pair in self.world.narrow_phase.contact_pairs_with(self.object_collider) {
+            let PairContacts::Rigid(rigid) = &pair.contacts else { continue };
+            let (Some(c1), Some(c2)) = (colliders.get(pair.collider1), colliders.get(pair.collider2)) else {
+                continue;
+            };
+            let object_is_1 = pair.collider1 == self.object_collider;
+            let other = if object_is_1 { c2.parent() } else { c1.parent() };
+            for m in &rigid.manifolds {
+                // `data.normal` points from collider 1 to collider 2.
+                let normal = if object_is_1 { -m.data.normal } else { m.data.normal };
+                for pt in &m.points {
+                    if pt.data.impulse <= 0.0 {
+                        continue;
+                    }
+                    let p1 = c1.position().transform_point(pt.local_p1);
+                    let p2 = c2.position().transform_point(pt.local_p2);
+                    f((p1 + p2) * 0.5, normal, pt.data.impulse, other);
+                }
+            }
+        }
+    }
+
+    fn accumulate_touch(&mut self) {
+        let dt = self.world.integration_parameters.dt;
+        let mut hits: Vec<(usize, f64)> = Vec::new();
+        let bodies = &self.world.bodies;
+        self.for_each_object_contact(|p, _n, impulse, other| {
+            let Some(other) = other else { return };
+            let (Some(sensors), Some(rb)) = (self.sensors_of_body.get(&other), bodies.get(other)) else { return };
+            let local_body = rb.position().inverse_transform_point(p);
+            for &i in sensors {
+                let s = &self.model.touch_sites[i];
+                let q = s.pose.inverse_transform_point(local_body).abs();
+                if q.x <= s.half.x && q.y <= s.half.y && q.z <= s.half.z {
+                    hits.push((i, f64::from(impulse / dt)));
+                }
+            }
+        });
+        for (i, f) in hits {
+            self.touch_sum[i] += f;
+        }
+    }
+
+    fn joint_coord(&self, k: usize) -> (f64, f64) {
+        let (h, axis) = self.joint_dofs[k];
+        let Some((mb, link_id)) = self.world.multibody_joints.get(h) else { return (0.0, 0.0) };
+        let Some(link) = mb.link(link_id) else { return (0.0, 0.0) };
+        let q = link.joint().coords()[axis];
+        let v = mb.joint_velocity(link);
+        let qd = if v.is_empty() { 0.0 } else { v[0] };
+        (f64::from(q), f64::from(qd))
+    }
+}
+
+fn quat_wxyz(q: Rotation) -> [f64; 4] {
+    [f64::from(q.w), f64::from(q.x), f64::from(q.y), f64::from(q.z)]
+}
+
+fn arr(v: Vector) -> [f64; 3] {
+    [f64::from(v.x), f64::from(v.y), f64::from(v.z)]
+}
+
+impl HandPhysics for RapierHand {
+    fn timestep(&self) -> f64 {
+        self.settings.timestep
+    }
+
+    fn ctrl_range(&self) -> &[[f64; 2]] {
+        &self.model.ctrl_range
+    }
+
+    fn touch_names(&self) -> &[String] {
+        &self.model.touch_names
+    }
+
+    fn reset(&mut self) {
+        // Rebuilding the world from the loaded model is cheap next to an episode
+        // and drops every warm-start cache, so episodes depend only on their seed.
+        *self = Self::build(Arc::clone(&self.model), self.settings);
+        self.set_ctrl(&vec![0.0; self.ctrl.len()]);
+    }
+
+    fn set_object_pose(&mut self, position: [f64; 3], q: [f64; 4]) {
+        if let Some(rb) = self.world.bodies.get_mut(self.object) {
+            let rot = Rotation::from_xyzw(q[1] as Real, q[2] as Real, q[3] as Real, q[0] as Real).normalize();
+            let pos = Vector::new(position[0] as Real, position[1] as Real, position[2] as Real);
+            rb.set_position(Pose::from_parts(pos, rot), true);
+            rb.set_linvel(Vector::ZERO, true);
+            rb.set_angvel(Vector::ZERO, true);
+        }
+    }
+
+    fn set_ctrl(&mut self, ctrl: &[f64]) {
+        for ((c, &u), r) in self.ctrl.iter_mut().zip(ctrl).zip(&self.model.ctrl_range) {
+            *c = u.clamp(r[0], r[1]) as Real;
+        }
+        self.handles.apply_controls_multibody(&mut self.world.bodies, &mut self.world.multibody_joints, &self.ctrl);
+    }
+
+    fn step(&mut self, substeps: usize) {
+        self.touch_sum.iter_mut().for_each(|t| *t = 0.0);
+        for _ in 0..substeps {
+            self.world.step();
+            self.accumulate_touch();
+        }
+        let n = substeps.max(1) as f64;
+        for (t, s) in self.touch.iter_mut().zip(&self.touch_sum) {
+            *t = s / n;
+        }
+    }
+
+    fn hand_qpos(&self, out: &mut [f64]) {
+        for (k, o) in out.iter_mut().enumerate().take(self.joint_dofs.len()) {
+            *o = self.joint_coord(k).0;
+        }
+    }
+
+    fn hand_qvel(&self, out: &mut [f64]) {
+        for (k, o) in out.iter_mut().enumerate().take(self.joint_dofs.len()) {
+            *o = self.joint_coord(k).1;
+        }
+    }
+
+    fn object_pose(&self) -> ([f64; 3], [f64; 4]) {
+        let rb = &self.world.bodies[self.object];
+        (arr(rb.translation()), quat_wxyz(*rb.rotation()))
+    }
+
+    fn object_qvel(&self) -> [f64; 6] {
+        let rb = &self.world.bodies[self.object];
+        let lin = arr(rb.linvel());
+        let ang_local = arr(rb.rotation().inverse() * rb.angvel());
+        [lin[0], lin[1], lin[2], ang_local[0], ang_local[1], ang_local[2]]
+    }
+
+    fn touch(&self) -> &[f64] {
+        &self.touch
+    }
+
+    fn palm_center(&self) -> [f64; 3] {
+        arr(self.world.bodies[self.palm].position().transform_point(self.model.palm_center_local))
+    }
+
+    fn object_contacts(&self) -> ObjectContacts {
+        let dt = self.world.integration_parameters.dt;
+        let mut points = Vec::new();
+        self.for_each_object_contact(|p, n, impulse, other| {
+            if other.is_some_and(|o| self.is_hand_body(o)) {
+                points.push(ContactPoint { position: arr(p), normal: arr(n), normal_force: f64::from(impulse / dt) });
+            }
+        });
+        let rb = &self.world.bodies[self.object];
+        ObjectContacts {
+            points,
+            center_of_mass: arr(rb.center_of_mass()),
+            active_touch_sensors: self.touch.iter().filter(|&&t| t > 0.0).count(),
+        }
+    }
+}
+
+impl RapierHand {
+    /// Whether `h` is one of the model's bodies other than the object (i.e. the hand).
+    fn is_hand_body(&self, h: RigidBodyHandle) -> bool {
+        h != self.object && self.body_handles.contains(&Some(h))
+    }
+}
