@@ -1,0 +1,253 @@
+//! The learning side: the [`Agent`] trait, the actor observation layout and the
+//! batch of joint transitions every agent learns from.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::CoreError;
+use crate::spec::{EnvSpec, JointAction, Observation};
+
+/// The agents' learning system: one actor and one critic per agent of the
+/// environment (MAGCLA: critics see the global observation, the goal and all
+/// actions; actors see their actor input, see [`ObservationLayout`]).
+///
+/// Implemented by the burn DDPG learner of `fmsr-nn`, or by your own.
+pub trait Agent {
+    /// The error of this learner.
+    type Error: std::error::Error + Send + Sync + 'static;
+
+    /// Number of agents.
+    fn num_agents(&self) -> usize;
+
+    /// Deterministic actions of every agent, each in `[-1, 1]`, from a batch of
+    /// actor inputs: `inputs[i]` holds `n` rows of agent `i`'s actor input, row
+    /// major. Returns, for every agent, `n` rows of its action.
+    fn act(&mut self, inputs: &[Vec<f32>], n: usize) -> Result<Vec<Vec<f32>>, Self::Error>;
+
+    /// One update of every agent's critic and actor from the same batch
+    /// (experience synchronisation), followed by information sharing when the
+    /// learner is configured with it.
+    fn learn(&mut self, batch: &Batch) -> Result<LearnStats, Self::Error>;
+
+    /// Moves the target networks towards the online networks (polyak averaging, eq. 9).
+    fn update_targets(&mut self) -> Result<(), Self::Error>;
+
+    /// The parameters of agent `agent` that consensus mixes (the shared-shape
+    /// actor trunk), flattened.
+    fn consensus_params(&self, agent: usize) -> Result<Vec<f32>, Self::Error>;
+
+    /// Replaces the parameters returned by [`Agent::consensus_params`].
+    fn set_consensus_params(&mut self, agent: usize, params: &[f32]) -> Result<(), Self::Error>;
+}
+
+/// Losses of one [`Agent::learn`] call, one value per agent.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct LearnStats {
+    /// Critic (TD) loss of each agent.
+    pub critic_loss: Vec<f32>,
+    /// Actor loss of each agent.
+    pub actor_loss: Vec<f32>,
+}
+
+/// How an actor's input is assembled (DESIGN.md 3.2): its local observation,
+/// the goal, and its graph neighbours' previous actions, in that order.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ObservationLayout {
+    spec: EnvSpec,
+    neighbours: Vec<Vec<usize>>,
+}
+
+impl ObservationLayout {
+    /// A layout for `spec` where agent `i` observes the previous actions of
+    /// `neighbours[i]`.
+    ///
+    /// ```
+    /// use fmsr_core::agent::ObservationLayout;
+    /// use fmsr_core::spec::{AgentSpec, EnvSpec, JointAction, Observation};
+    /// let agent = |n: &str, s: Vec<usize>, d| AgentSpec { name: n.into(), action_slots: s, local_obs_dim: d };
+    /// let spec = EnvSpec { agents: vec![agent("a", vec![0], 1), agent("b", vec![1, 2], 2)],
+    ///     action_dim: 3, obs_dim: 3, goal_dim: 1, episode_len: 5, features: vec![], reward_range: (-1.0, 0.0) };
+    /// let layout = ObservationLayout::new(spec, vec![vec![1], vec![0]]).unwrap();
+    /// assert_eq!(layout.actor_input_dim(0), 1 + 1 + 2);
+    /// let mut input = Vec::new();
+    /// layout.push_actor_input(0, &[7.0], &[9.0], &[0.1, 0.2, 0.3], &mut input);
+    /// assert_eq!(input, vec![7.0, 9.0, 0.2, 0.3]);
+    /// ```
+    pub fn new(spec: EnvSpec, neighbours: Vec<Vec<usize>>) -> Result<Self, CoreError> {
+        spec.validate()?;
+        if neighbours.len() != spec.agents.len() {
+            return Err(CoreError::Dimension {
+                what: "observation graph nodes",
+                expected: spec.agents.len(),
+                found: neighbours.len(),
+            });
+        }
+        for (i, ns) in neighbours.iter().enumerate() {
+            if let Some(&j) = ns.iter().find(|&&j| j >= spec.agents.len() || j == i) {
+                return Err(CoreError::InvalidConfig {
+                    key: "observation_graph".into(),
+                    reason: format!("agent {i} lists {j} as a neighbour"),
+                });
+            }
+        }
+        Ok(Self { spec, neighbours })
+    }
+
+    /// A layout whose neighbours are those of `graph` (node `i` = agent `i`).
+    pub fn from_graph(spec: EnvSpec, graph: &fmsr_graph::Graph) -> Result<Self, CoreError> {
+        if graph.nodes() != spec.agents.len() {
+            return Err(CoreError::Dimension {
+                what: "observation graph nodes",
+                expected: spec.agents.len(),
+                found: graph.nodes(),
+            });
+        }
+        let neighbours =
+            (0..graph.nodes()).map(|i| graph.neighbors(i).map(<[usize]>::to_vec)).collect::<Result<Vec<_>, _>>()?;
+        Self::new(spec, neighbours)
+    }
+
+    /// The environment's spec.
+    #[must_use]
+    pub fn spec(&self) -> &EnvSpec {
+        &self.spec
+    }
+
+    /// The neighbours whose actions agent `agent` observes.
+    #[must_use]
+    pub fn neighbours(&self, agent: usize) -> &[usize] {
+        &self.neighbours[agent]
+    }
+
+    /// Length of agent `agent`'s actor input.
+    #[must_use]
+    pub fn actor_input_dim(&self, agent: usize) -> usize {
+        self.spec.agents[agent].local_obs_dim
+            + self.spec.goal_dim
+            + self.neighbours[agent].iter().map(|&j| self.spec.agents[j].action_dim()).sum::<usize>()
+    }
+
+    /// Length of every critic's input: global observation, goal and joint action.
+    #[must_use]
+    pub fn critic_input_dim(&self) -> usize {
+        self.spec.obs_dim + self.spec.goal_dim + self.spec.action_dim
+    }
+
+    /// Appends agent `agent`'s actor input to `out`: `local`, `goal`, then the
+    /// neighbours' slots of `prev_action` (the joint action of the previous step).
+    pub fn push_actor_input(&self, agent: usize, local: &[f32], goal: &[f32], prev_action: &[f32], out: &mut Vec<f32>) {
+        out.extend_from_slice(local);
+        out.extend_from_slice(goal);
+        for &j in &self.neighbours[agent] {
+            out.extend(self.spec.agents[j].action_slots.iter().map(|&s| prev_action[s]));
+        }
+    }
+
+    /// The actor inputs of all agents for one observation (one row each).
+    #[must_use]
+    pub fn actor_inputs(&self, obs: &Observation, prev_action: &JointAction) -> Vec<Vec<f32>> {
+        (0..self.spec.agents.len())
+            .map(|i| {
+                let mut v = Vec::with_capacity(self.actor_input_dim(i));
+                self.push_actor_input(i, &obs.locals[i], &obs.desired_goal, &prev_action.0, &mut v);
+                v
+            })
+            .collect()
+    }
+}
+
+/// A batch of joint transitions with hindsight-relabelled goals, shared by all
+/// agents' updates (DESIGN.md 3.8). Matrices are row major, one row per sample.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct Batch {
+    /// Number of samples.
+    pub size: usize,
+    /// Global observations `x_t`, `size x obs_dim`.
+    pub obs: Vec<f32>,
+    /// Global observations `x_{t+1}`.
+    pub next_obs: Vec<f32>,
+    /// (Relabelled) goals, `size x goal_dim`.
+    pub goals: Vec<f32>,
+    /// Joint actions `a_t`, `size x action_dim`.
+    pub actions: Vec<f32>,
+    /// Actor inputs at `t`, per agent `size x actor_input_dim(i)`.
+    pub actor_inputs: Vec<Vec<f32>>,
+    /// Actor inputs at `t + 1`, per agent.
+    pub next_actor_inputs: Vec<Vec<f32>>,
+    /// The task reward of each sample for its (relabelled) goal.
+    pub task_rewards: Vec<f32>,
+    /// The features `phi(s_t, a_t)`, `size x K`.
+    pub features: Vec<f32>,
+    /// Each agent's reward (task and shadow, eq. 7), per agent `size`.
+    pub rewards: Vec<Vec<f32>>,
+    /// Each agent's bounds of the Q target (`clip_return`, DESIGN.md 3.10).
+    pub q_bounds: Vec<(f32, f32)>,
+}
+
+/// What information sharing mixes (DESIGN.md 3.7).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ShareMode {
+    /// Mix the trunk parameters after each update (eq. 8, default).
+    #[default]
+    Parameters,
+    /// Mix the trunk gradients before each optimiser step.
+    Gradients,
+}
+
+/// Which networks information sharing mixes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ShareTarget {
+    /// The actors' trunks (default).
+    #[default]
+    Actors,
+    /// The critics' trunks.
+    Critics,
+    /// Both.
+    Both,
+}
+
+/// Information sharing as a learner applies it: the validated mixing matrix
+/// over the agents (node `i` = agent `i`), the mode and the target.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Sharing {
+    /// The symmetric doubly stochastic mixing matrix `M` of eq. 8.
+    pub mixing: fmsr_graph::MixingMatrix,
+    /// Parameters (default) or gradients.
+    pub mode: ShareMode,
+    /// Actors (default), critics or both.
+    pub target: ShareTarget,
+}
+
+/// Where gradients or parameters would be averaged across worker processes
+/// (the paper trains with 4 MPI workers). The single-process implementation
+/// [`SingleProcess`] does nothing, so running on several processes later
+/// changes no algorithm code.
+pub trait Communicator: Send + Sync + std::fmt::Debug {
+    /// Number of workers.
+    fn workers(&self) -> usize;
+    /// Replaces `values` by their mean over all workers.
+    fn all_reduce_mean(&self, values: &mut [f32]);
+}
+
+/// The single-process [`Communicator`]: one worker, averaging is the identity.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SingleProcess;
+
+impl Communicator for SingleProcess {
+    fn workers(&self) -> usize {
+        1
+    }
+
+    fn all_reduce_mean(&self, _values: &mut [f32]) {}
+}
+
+/// The optional ability of a learner to save and restore its whole state
+/// (networks, optimiser state, normalisers), for checkpoints.
+pub trait SaveState: Agent {
+    /// The learner's state as bytes.
+    fn save_state(&self) -> Result<Vec<u8>, Self::Error>;
+    /// Restores a state written by [`SaveState::save_state`]; a state of another
+    /// shape is an error, never a panic.
+    fn load_state(&mut self, bytes: &[u8]) -> Result<(), Self::Error>;
+}

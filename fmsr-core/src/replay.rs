@@ -1,0 +1,520 @@
+//! One replay buffer of joint transitions with hindsight experience replay
+//! (HER, "future" strategy), shared by all agents (DESIGN.md 3.8).
+//!
+//! Episodes of exactly `T` steps are stored whole. A batch samples `n` pairs
+//! `(episode, t)` uniformly; with probability `1 - 1/(1 + k)` the goal of a sample
+//! is replaced by the goal achieved at a uniformly chosen later step `t' in [t+1, T]`
+//! and its task reward recomputed by [`crate::Env::goal_reward`]. Every agent's
+//! update uses the same samples, goals and rewards. When full, the oldest
+//! episode is overwritten.
+
+use rand::Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::agent::{Batch, ObservationLayout};
+use crate::error::CoreError;
+use crate::spec::{EnvSpec, JointAction, Observation, StepInfo};
+
+/// Writes every agent's reward for a sample: `(task reward, features phi, out)`.
+pub type AgentRewardFn<'a> = dyn Fn(f32, &[f32], &mut [f32]) + 'a;
+
+/// Hindsight relabelling settings.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HerConfig {
+    /// Relabelled goals per original goal, `k` (default 4, so 80 % of samples are relabelled).
+    pub replay_k: usize,
+}
+
+impl Default for HerConfig {
+    fn default() -> Self {
+        Self { replay_k: 4 }
+    }
+}
+
+impl HerConfig {
+    /// Probability that a sample's goal is relabelled, `1 - 1 / (1 + k)`.
+    ///
+    /// ```
+    /// use fmsr_core::replay::HerConfig;
+    /// assert_eq!(HerConfig { replay_k: 4 }.future_p(), 0.8);
+    /// assert_eq!(HerConfig { replay_k: 0 }.future_p(), 0.0);
+    /// ```
+    #[must_use]
+    pub fn future_p(&self) -> f64 {
+        1.0 - 1.0 / (1.0 + self.replay_k as f64)
+    }
+}
+
+/// One recorded episode: `T + 1` observations, `T` joint actions and `T` step infos.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct Episode {
+    /// Observations `o_0 .. o_T`.
+    pub observations: Vec<Observation>,
+    /// Joint actions `a_0 .. a_{T-1}`.
+    pub actions: Vec<JointAction>,
+    /// Infos of the steps (features `phi(s_t, a_t)`, success, drop).
+    pub infos: Vec<StepInfo>,
+}
+
+impl Episode {
+    /// The feature trajectory `phi(s_t, a_t)`, `t = 0 .. T-1`.
+    #[must_use]
+    pub fn features(&self) -> Vec<Vec<f32>> {
+        self.infos.iter().map(|i| i.features.clone()).collect()
+    }
+}
+
+/// The shared replay buffer of joint transitions.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ReplayBuffer {
+    obs_dim: usize,
+    goal_dim: usize,
+    action_dim: usize,
+    local_dims: Vec<usize>,
+    num_features: usize,
+    horizon: usize,
+    capacity: usize,
+    len: usize,
+    next: usize,
+    global: Vec<f32>,
+    locals: Vec<Vec<f32>>,
+    achieved: Vec<f32>,
+    desired: Vec<f32>,
+    actions: Vec<f32>,
+    features: Vec<f32>,
+}
+
+impl ReplayBuffer {
+    /// A buffer for episodes of `spec` holding at least `capacity_transitions`
+    /// transitions (rounded up to whole episodes). Memory grows as episodes arrive.
+    pub fn new(spec: &EnvSpec, capacity_transitions: usize) -> Result<Self, CoreError> {
+        spec.validate()?;
+        if capacity_transitions == 0 {
+            return Err(CoreError::InvalidConfig { key: "buffer_size".into(), reason: "must be at least 1".into() });
+        }
+        Ok(Self {
+            obs_dim: spec.obs_dim,
+            goal_dim: spec.goal_dim,
+            action_dim: spec.action_dim,
+            local_dims: spec.agents.iter().map(|a| a.local_obs_dim).collect(),
+            num_features: spec.features.len(),
+            horizon: spec.episode_len,
+            capacity: capacity_transitions.div_ceil(spec.episode_len),
+            len: 0,
+            next: 0,
+            global: Vec::new(),
+            locals: vec![Vec::new(); spec.agents.len()],
+            achieved: Vec::new(),
+            desired: Vec::new(),
+            actions: Vec::new(),
+            features: Vec::new(),
+        })
+    }
+
+    /// Number of episodes stored.
+    #[must_use]
+    pub fn episodes(&self) -> usize {
+        self.len
+    }
+
+    /// Number of transitions stored.
+    #[must_use]
+    pub fn transitions(&self) -> usize {
+        self.len * self.horizon
+    }
+
+    /// Capacity in episodes.
+    #[must_use]
+    pub fn capacity_episodes(&self) -> usize {
+        self.capacity
+    }
+
+    /// Stores one episode, overwriting the oldest when full.
+    pub fn store(&mut self, episode: &Episode) -> Result<(), CoreError> {
+        let t = self.horizon;
+        let shape = |what, expected, found| {
+            if expected == found { Ok(()) } else { Err(CoreError::EpisodeShape { what, expected, found }) }
+        };
+        shape("observations", t + 1, episode.observations.len())?;
+        shape("actions", t, episode.actions.len())?;
+        shape("step infos", t, episode.infos.len())?;
+        for o in &episode.observations {
+            shape("global observation values", self.obs_dim, o.global.len())?;
+            shape("achieved goal values", self.goal_dim, o.achieved_goal.len())?;
+            shape("local observations", self.local_dims.len(), o.locals.len())?;
+            for (l, &d) in o.locals.iter().zip(&self.local_dims) {
+                shape("local observation values", d, l.len())?;
+            }
+        }
+        shape("desired goal values", self.goal_dim, episode.observations[0].desired_goal.len())?;
+        for a in &episode.actions {
+            shape("joint action values", self.action_dim, a.0.len())?;
+        }
+        for i in &episode.infos {
+            shape("feature values", self.num_features, i.features.len())?;
+        }
+
+        let slot = self.next;
+        let write = |dst: &mut Vec<f32>, per_episode: usize, src: &mut dyn Iterator<Item = &f32>| {
+            let start = slot * per_episode;
+            if dst.len() < start + per_episode {
+                dst.resize(start + per_episode, 0.0);
+            }
+            for (d, s) in dst[start..start + per_episode].iter_mut().zip(src) {
+                *d = *s;
+            }
+        };
+        write(&mut self.global, (t + 1) * self.obs_dim, &mut episode.observations.iter().flat_map(|o| o.global.iter()));
+        for (a, &d) in self.local_dims.iter().enumerate() {
+            write(&mut self.locals[a], (t + 1) * d, &mut episode.observations.iter().flat_map(|o| o.locals[a].iter()));
+        }
+        write(
+            &mut self.achieved,
+            (t + 1) * self.goal_dim,
+            &mut episode.observations.iter().flat_map(|o| o.achieved_goal.iter()),
+        );
+        write(&mut self.desired, self.goal_dim, &mut episode.observations[0].desired_goal.iter());
+        write(&mut self.actions, t * self.action_dim, &mut episode.actions.iter().flat_map(|a| a.0.iter()));
+        write(&mut self.features, t * self.num_features, &mut episode.infos.iter().flat_map(|i| i.features.iter()));
+        self.next = (self.next + 1) % self.capacity;
+        self.len = (self.len + 1).min(self.capacity);
+        Ok(())
+    }
+
+    fn achieved_at(&self, ep: usize, t: usize) -> &[f32] {
+        let start = (ep * (self.horizon + 1) + t) * self.goal_dim;
+        &self.achieved[start..start + self.goal_dim]
+    }
+
+    /// Samples a batch of `n` joint transitions with HER relabelling.
+    ///
+    /// `goal_reward(achieved, desired)` recomputes the task reward (normally
+    /// [`crate::Env::goal_reward`]); `agent_rewards(task, phi, out)` writes every
+    /// agent's reward (e.g. [`crate::shadow::AgentRewards::compute`] with the
+    /// current occupancy). `q_bounds` of the batch are left empty for the caller.
+    pub fn sample<R: Rng + ?Sized>(
+        &self,
+        n: usize,
+        her: &HerConfig,
+        layout: &ObservationLayout,
+        rng: &mut R,
+        goal_reward: &dyn Fn(&[f32], &[f32]) -> f32,
+        agent_rewards: &AgentRewardFn<'_>,
+    ) -> Result<Batch, CoreError> {
+        if self.len == 0 {
+            return Err(CoreError::EmptyReplay);
+        }
+        let spec = layout.spec();
+        if spec.obs_dim != self.obs_dim
+            || spec.action_dim != self.action_dim
+            || spec.agents.len() != self.local_dims.len()
+        {
+            return Err(CoreError::Dimension {
+                what: "layout vs replay observation",
+                expected: self.obs_dim,
+                found: spec.obs_dim,
+            });
+        }
+        let (t_max, od, gd, ad, k) = (self.horizon, self.obs_dim, self.goal_dim, self.action_dim, self.num_features);
+        let agents = self.local_dims.len();
+        let future_p = her.future_p();
+        let mut b = Batch {
+            size: n,
+            obs: Vec::with_capacity(n * od),
+            next_obs: Vec::with_capacity(n * od),
+            goals: Vec::with_capacity(n * gd),
+            actions: Vec::with_capacity(n * ad),
+            actor_inputs: (0..agents).map(|i| Vec::with_capacity(n * layout.actor_input_dim(i))).collect(),
+            next_actor_inputs: (0..agents).map(|i| Vec::with_capacity(n * layout.actor_input_dim(i))).collect(),
+            task_rewards: Vec::with_capacity(n),
+            features: Vec::with_capacity(n * k),
+            rewards: vec![Vec::with_capacity(n); agents],
+            q_bounds: Vec::new(),
+        };
+        let zeros = vec![0.0f32; ad];
+        let mut out = vec![0.0f32; agents];
+        for _ in 0..n {
+            let ep = rng.random_range(0..self.len);
+            let t = rng.random_range(0..t_max);
+            let goal: Vec<f32> = if rng.random::<f64>() < future_p {
+                let future = t + 1 + rng.random_range(0..t_max - t);
+                self.achieved_at(ep, future).to_vec()
+            } else {
+                self.desired[ep * gd..(ep + 1) * gd].to_vec()
+            };
+            let row = |t: usize| (ep * (t_max + 1) + t) * od;
+            b.obs.extend_from_slice(&self.global[row(t)..row(t) + od]);
+            b.next_obs.extend_from_slice(&self.global[row(t + 1)..row(t + 1) + od]);
+            let act = |t: usize| &self.actions[(ep * t_max + t) * ad..(ep * t_max + t + 1) * ad];
+            let action = act(t);
+            let prev = if t == 0 { &zeros[..] } else { act(t - 1) };
+            b.actions.extend_from_slice(action);
+            for (a, &d) in self.local_dims.iter().enumerate() {
+                let lrow = |t: usize| (ep * (t_max + 1) + t) * d;
+                let local = &self.locals[a][lrow(t)..lrow(t) + d];
+                let next_local = &self.locals[a][lrow(t + 1)..lrow(t + 1) + d];
+                layout.push_actor_input(a, local, &goal, prev, &mut b.actor_inputs[a]);
+                layout.push_actor_input(a, next_local, &goal, action, &mut b.next_actor_inputs[a]);
+            }
+            let task = goal_reward(self.achieved_at(ep, t + 1), &goal);
+            let phi = &self.features[(ep * t_max + t) * k..(ep * t_max + t + 1) * k];
+            agent_rewards(task, phi, &mut out);
+            for (r, o) in b.rewards.iter_mut().zip(&out) {
+                r.push(*o);
+            }
+            b.task_rewards.push(task);
+            b.features.extend_from_slice(phi);
+            b.goals.extend_from_slice(&goal);
+        }
+        Ok(b)
+    }
+}
+
+const REPLAY_MAGIC: &[u8; 8] = b"FMSRRPLY";
+
+fn put_u64(out: &mut Vec<u8>, v: usize) {
+    out.extend_from_slice(&(v as u64).to_le_bytes());
+}
+
+fn put_f32s(out: &mut Vec<u8>, v: &[f32]) {
+    put_u64(out, v.len());
+    for x in v {
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+}
+
+struct Reader<'a>(&'a [u8]);
+
+impl Reader<'_> {
+    fn u64(&mut self) -> Result<usize, String> {
+        if self.0.len() < 8 {
+            return Err("truncated".into());
+        }
+        let (head, rest) = self.0.split_at(8);
+        self.0 = rest;
+        usize::try_from(u64::from_le_bytes(head.try_into().expect("8 bytes"))).map_err(|e| e.to_string())
+    }
+
+    fn f32s(&mut self) -> Result<Vec<f32>, String> {
+        let n = self.u64()?;
+        let bytes = n.checked_mul(4).filter(|&b| b <= self.0.len()).ok_or("truncated array")?;
+        let (head, rest) = self.0.split_at(bytes);
+        self.0 = rest;
+        Ok(head.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect())
+    }
+}
+
+impl ReplayBuffer {
+    /// The buffer as compact little-endian bytes (for checkpoints).
+    #[must_use]
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(64 + 4 * (self.global.len() + self.achieved.len() + self.actions.len()));
+        out.extend_from_slice(REPLAY_MAGIC);
+        for v in [
+            self.obs_dim,
+            self.goal_dim,
+            self.action_dim,
+            self.num_features,
+            self.horizon,
+            self.capacity,
+            self.len,
+            self.next,
+        ] {
+            put_u64(&mut out, v);
+        }
+        put_u64(&mut out, self.local_dims.len());
+        for &d in &self.local_dims {
+            put_u64(&mut out, d);
+        }
+        for v in [&self.global, &self.achieved, &self.desired, &self.actions, &self.features] {
+            put_f32s(&mut out, v);
+        }
+        for l in &self.locals {
+            put_f32s(&mut out, l);
+        }
+        out
+    }
+
+    /// Reads a buffer written by [`ReplayBuffer::to_bytes`], checking its consistency.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self, String> {
+        if bytes.len() < 8 || &bytes[..8] != REPLAY_MAGIC {
+            return Err("bad magic".into());
+        }
+        let mut r = Reader(&bytes[8..]);
+        let mut dims = [0usize; 8];
+        for d in &mut dims {
+            *d = r.u64()?;
+        }
+        let [obs_dim, goal_dim, action_dim, num_features, horizon, capacity, len, next] = dims;
+        let agents = r.u64()?;
+        if agents > 1024 {
+            return Err(format!("{agents} agents"));
+        }
+        let local_dims = (0..agents).map(|_| r.u64()).collect::<Result<Vec<_>, _>>()?;
+        let (global, achieved, desired, actions, features) = (r.f32s()?, r.f32s()?, r.f32s()?, r.f32s()?, r.f32s()?);
+        let locals = (0..agents).map(|_| r.f32s()).collect::<Result<Vec<_>, _>>()?;
+        let buffer = Self {
+            obs_dim,
+            goal_dim,
+            action_dim,
+            local_dims,
+            num_features,
+            horizon,
+            capacity,
+            len,
+            next,
+            global,
+            locals,
+            achieved,
+            desired,
+            actions,
+            features,
+        };
+        let ok = capacity > 0
+            && horizon > 0
+            && len <= capacity
+            && next < capacity
+            && buffer.global.len() >= len * (horizon + 1) * obs_dim
+            && buffer.achieved.len() >= len * (horizon + 1) * goal_dim
+            && buffer.desired.len() >= len * goal_dim
+            && buffer.actions.len() >= len * horizon * action_dim
+            && buffer.features.len() >= len * horizon * num_features
+            && buffer.locals.iter().zip(&buffer.local_dims).all(|(l, d)| l.len() >= len * (horizon + 1) * d)
+            && r.0.is_empty();
+        if ok { Ok(buffer) } else { Err("inconsistent sizes".into()) }
+    }
+
+    /// Whether this buffer holds episodes of `spec`'s shape.
+    #[must_use]
+    pub fn is_compatible(&self, spec: &EnvSpec) -> bool {
+        self.obs_dim == spec.obs_dim
+            && self.goal_dim == spec.goal_dim
+            && self.action_dim == spec.action_dim
+            && self.num_features == spec.features.len()
+            && self.horizon == spec.episode_len
+            && self.local_dims.iter().eq(spec.agents.iter().map(|a| &a.local_obs_dim))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spec::AgentSpec;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+
+    const T: usize = 5;
+
+    fn spec() -> EnvSpec {
+        let agent = |n: &str, s: Vec<usize>, d| AgentSpec { name: n.into(), action_slots: s, local_obs_dim: d };
+        EnvSpec {
+            agents: vec![agent("a", vec![0], 1), agent("b", vec![1, 2], 2)],
+            action_dim: 3,
+            obs_dim: 2,
+            goal_dim: 1,
+            episode_len: T,
+            features: vec!["f".into()],
+            reward_range: (-10.0, 0.0),
+        }
+    }
+
+    /// Episode `e`: global observation (e, t), achieved goal 10 e + t, desired
+    /// goal -1 - e, action (t, e, -t), feature t mod 2.
+    fn episode(e: usize) -> Episode {
+        let ef = e as f32;
+        let obs = |t: usize| Observation {
+            global: vec![ef, t as f32],
+            locals: vec![vec![t as f32], vec![ef, t as f32]],
+            achieved_goal: vec![10.0 * ef + t as f32],
+            desired_goal: vec![-1.0 - ef],
+        };
+        Episode {
+            observations: (0..=T).map(obs).collect(),
+            actions: (0..T).map(|t| JointAction(vec![t as f32, ef, -(t as f32)])).collect(),
+            infos: (0..T).map(|t| StepInfo { features: vec![(t % 2) as f32], ..StepInfo::default() }).collect(),
+        }
+    }
+
+    #[test]
+    fn her_future_relabels_with_later_achieved_goals_and_recomputed_rewards() {
+        let spec = spec();
+        let layout = ObservationLayout::new(spec.clone(), vec![vec![1], vec![0]]).unwrap();
+        let mut buffer = ReplayBuffer::new(&spec, 100).unwrap();
+        for e in 0..4 {
+            buffer.store(&episode(e)).unwrap();
+        }
+        let reward = |a: &[f32], d: &[f32]| -(a[0] - d[0]).abs();
+        let agent_rewards = |task: f32, phi: &[f32], out: &mut [f32]| {
+            out[0] = task;
+            out[1] = task + phi[0];
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let b = buffer.sample(2000, &HerConfig::default(), &layout, &mut rng, &reward, &agent_rewards).unwrap();
+        let mut relabelled = 0;
+        for i in 0..b.size {
+            let (e, t) = (b.obs[2 * i] as usize, b.obs[2 * i + 1] as usize);
+            assert_eq!(b.next_obs[2 * i + 1] as usize, t + 1);
+            let goal = b.goals[i];
+            if goal >= 0.0 {
+                // a future achieved goal 10 e + t' with t < t' <= T
+                let future = goal as usize - 10 * e;
+                assert!(future > t && future <= T, "sample ({e}, {t}) relabelled with t' = {future}");
+                relabelled += 1;
+            } else {
+                assert_eq!(goal, -1.0 - e as f32);
+            }
+            let achieved_next = 10.0 * e as f32 + (t + 1) as f32;
+            assert_eq!(b.task_rewards[i], reward(&[achieved_next], &[goal]));
+            assert_eq!(b.rewards[0][i], b.task_rewards[i]);
+            assert_eq!(b.rewards[1][i], b.task_rewards[i] + (t % 2) as f32);
+            assert_eq!(&b.actions[3 * i..3 * i + 3], &[t as f32, e as f32, -(t as f32)]);
+            // agent a: local t, goal, then b's previous action (zeros at t = 0)
+            let prev = if t == 0 { [0.0, 0.0] } else { [e as f32, -((t - 1) as f32)] };
+            assert_eq!(&b.actor_inputs[0][4 * i..4 * i + 4], &[t as f32, goal, prev[0], prev[1]]);
+            assert_eq!(&b.next_actor_inputs[0][4 * i..4 * i + 4], &[(t + 1) as f32, goal, e as f32, -(t as f32)]);
+            // agent b: local (e, t), goal, then a's previous action
+            let prev_a = if t == 0 { 0.0 } else { (t - 1) as f32 };
+            assert_eq!(&b.actor_inputs[1][4 * i..4 * i + 4], &[e as f32, t as f32, goal, prev_a]);
+        }
+        let frac = relabelled as f64 / b.size as f64;
+        assert!((frac - 0.8).abs() < 0.04, "relabelled fraction {frac}");
+    }
+
+    #[test]
+    fn overwrites_oldest_when_full_and_checks_shapes() {
+        let spec = spec();
+        let mut buffer = ReplayBuffer::new(&spec, 2 * T).unwrap();
+        assert_eq!(buffer.capacity_episodes(), 2);
+        for e in 0..3 {
+            buffer.store(&episode(e)).unwrap();
+        }
+        assert_eq!(buffer.episodes(), 2);
+        let layout = ObservationLayout::new(spec.clone(), vec![vec![], vec![]]).unwrap();
+        let mut rng = ChaCha8Rng::seed_from_u64(0);
+        let b = buffer.sample(200, &HerConfig { replay_k: 0 }, &layout, &mut rng, &|_, _| 0.0, &|_, _, _| {}).unwrap();
+        assert!(b.obs.chunks(2).all(|o| o[0] != 0.0), "episode 0 was overwritten");
+        let mut bad = episode(0);
+        bad.actions.pop();
+        assert!(matches!(buffer.store(&bad), Err(CoreError::EpisodeShape { what: "actions", .. })));
+        let empty = ReplayBuffer::new(&spec, 10).unwrap();
+        assert!(matches!(
+            empty.sample(1, &HerConfig::default(), &layout, &mut rng, &|_, _| 0.0, &|_, _, _| {}),
+            Err(CoreError::EmptyReplay)
+        ));
+    }
+
+    #[test]
+    fn bytes_round_trip_and_reject_corruption() {
+        let spec = spec();
+        let mut buffer = ReplayBuffer::new(&spec, 3 * T).unwrap();
+        for e in 0..2 {
+            buffer.store(&episode(e)).unwrap();
+        }
+        let bytes = buffer.to_bytes();
+        assert_eq!(ReplayBuffer::from_bytes(&bytes).unwrap(), buffer);
+        assert!(ReplayBuffer::from_bytes(&bytes[..bytes.len() - 3]).is_err());
+        assert!(ReplayBuffer::from_bytes(b"nonsense").is_err());
+        assert!(buffer.is_compatible(&spec));
+    }
+}
