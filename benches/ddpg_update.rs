@@ -1,2 +1,167 @@
-//! Placeholder until the bench lands.
-fn main() {}
+//! One joint DDPG update of the 6 Shadow Hand agents at the paper's sizes
+//! (action dims [2, 3, 3, 3, 4, 5] = 20, global observation 153, goal 7,
+//! actor inputs 65..179, batch 256, 3 x 256 hidden layers, Adam), on one and
+//! on two threads, and action selection for one observation.
+//!
+//! Run with `cargo bench --bench ddpg_update`. With `FMSR_PYTORCH_REFERENCE=1`
+//! it also runs `scripts/pytorch_reference/run.sh` (a venv with the PyTorch
+//! CPU wheel, timing the same update in Python) and prints our time / PyTorch
+//! time measured in the same run.
+
+use std::hint::black_box;
+use std::process::Command;
+use std::time::Instant;
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use fmsr_core::Agent;
+use fmsr_core::agent::{Batch, ObservationLayout};
+use fmsr_core::spec::{AgentSpec, EnvSpec};
+use fmsr_nn::{DdpgConfig, DdpgLearner};
+
+const BATCH: usize = 256;
+const ACTION_DIMS: [usize; 6] = [2, 3, 3, 3, 4, 5];
+/// Local observation dims: wrist, index, middle, ring, little, thumb.
+const LOCAL_DIMS: [usize; 6] = [60, 52, 52, 52, 58, 165];
+const OBS_DIM: usize = 153;
+const GOAL_DIM: usize = 7;
+
+/// The Shadow Hand partition; actors observe their finger-ring neighbours'
+/// previous actions (the wrist observes none), as DESIGN.md 3.7.
+fn layout() -> ObservationLayout {
+    let names = ["wrist", "index", "middle", "ring", "little", "thumb"];
+    let mut slot = 0;
+    let agents = names
+        .iter()
+        .zip(ACTION_DIMS.iter().zip(LOCAL_DIMS))
+        .map(|(name, (&dim, local))| {
+            let slots = (slot..slot + dim).collect();
+            slot += dim;
+            AgentSpec { name: (*name).into(), action_slots: slots, local_obs_dim: local }
+        })
+        .collect();
+    let spec = EnvSpec {
+        agents,
+        action_dim: 20,
+        obs_dim: OBS_DIM,
+        goal_dim: GOAL_DIM,
+        episode_len: 100,
+        features: vec!["safe_region".into(), "contacts".into()],
+        reward_range: (-std::f32::consts::PI, 0.0),
+    };
+    // Finger ring thumb-index-middle-ring-little-thumb; the wrist alone.
+    let neighbours = vec![vec![], vec![5, 2], vec![1, 3], vec![2, 4], vec![3, 5], vec![4, 1]];
+    ObservationLayout::new(spec, neighbours).expect("a valid layout")
+}
+
+/// Deterministic pseudo-random values in [-1, 1).
+fn values(len: usize, salt: usize) -> Vec<f32> {
+    let mut x = (salt as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
+    (0..len)
+        .map(|_| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 40) as f32 / (1u64 << 23) as f32 - 1.0
+        })
+        .collect()
+}
+
+fn batch(layout: &ObservationLayout) -> Batch {
+    let spec = layout.spec();
+    let n = BATCH;
+    let na = spec.num_agents();
+    Batch {
+        size: n,
+        obs: values(n * OBS_DIM, 1),
+        next_obs: values(n * OBS_DIM, 2),
+        goals: values(n * GOAL_DIM, 3),
+        actions: values(n * spec.action_dim, 4),
+        actor_inputs: (0..na).map(|i| values(n * layout.actor_input_dim(i), 10 + i)).collect(),
+        next_actor_inputs: (0..na).map(|i| values(n * layout.actor_input_dim(i), 20 + i)).collect(),
+        task_rewards: values(n, 5),
+        features: values(n * 2, 6),
+        rewards: (0..na).map(|i| values(n, 30 + i).into_iter().map(|r| r - 1.0).collect()).collect(),
+        q_bounds: vec![(-100.0, 0.0); na],
+    }
+}
+
+fn learner(threads: usize) -> DdpgLearner {
+    let config = DdpgConfig::new().with_threads(threads);
+    DdpgLearner::new(layout(), config, None).expect("a valid learner")
+}
+
+fn joint_update(c: &mut Criterion) {
+    let layout = layout();
+    let b = batch(&layout);
+    let mut group = c.benchmark_group("ddpg_joint_update_6_agents_b256_3x256");
+    group.sample_size(20);
+    group.throughput(Throughput::Elements(1));
+    for threads in [1, 2] {
+        let mut l = learner(threads);
+        group.bench_function(format!("threads_{threads}"), |bench| {
+            bench.iter(|| black_box(l.learn(black_box(&b)).expect("learn")));
+        });
+    }
+    group.finish();
+
+    let mut l = learner(2);
+    let inputs: Vec<Vec<f32>> = (0..6).map(|i| values(layout.actor_input_dim(i), 40 + i)).collect();
+    c.bench_function("ddpg_act_6_agents_one_observation", |bench| {
+        bench.iter(|| black_box(l.act(black_box(&inputs), 1).expect("act")));
+    });
+}
+
+/// Our updates/s over `iters` joint updates after a warm-up.
+fn our_rate(threads: usize, iters: usize) -> f64 {
+    let layout = layout();
+    let b = batch(&layout);
+    let mut l = learner(threads);
+    for _ in 0..3 {
+        l.learn(&b).expect("learn");
+    }
+    let start = Instant::now();
+    for _ in 0..iters {
+        black_box(l.learn(&b).expect("learn"));
+    }
+    iters as f64 / start.elapsed().as_secs_f64()
+}
+
+fn pytorch_reference(_c: &mut Criterion) {
+    if std::env::var("FMSR_PYTORCH_REFERENCE").as_deref() != Ok("1") {
+        return;
+    }
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/pytorch_reference/run.sh");
+    let out = match Command::new("bash").arg(script).output() {
+        Ok(out) if out.status.success() => out,
+        Ok(out) => {
+            eprintln!("pytorch reference failed ({}):\n{}", out.status, String::from_utf8_lossy(&out.stderr));
+            return;
+        }
+        Err(e) => {
+            eprintln!("could not run {script}: {e}");
+            return;
+        }
+    };
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    print!("{stdout}");
+    // Lines `updates/s threads=T: X` from update.py.
+    for threads in [1, 2] {
+        let key = format!("updates/s threads={threads}:");
+        let torch =
+            stdout.lines().find_map(|l| l.strip_prefix(key.as_str())).and_then(|v| v.trim().parse::<f64>().ok());
+        let ours = our_rate(threads, 30);
+        match torch {
+            Some(torch) => println!(
+                "joint update, {threads} thread(s): fmsr-nn {ours:.2} updates/s ({:.1} ms), PyTorch {torch:.2} updates/s ({:.1} ms); \
+                 our time / PyTorch time = {:.2}",
+                1e3 / ours,
+                1e3 / torch,
+                torch / ours
+            ),
+            None => println!("joint update, {threads} thread(s): fmsr-nn {ours:.2} updates/s; no PyTorch number"),
+        }
+    }
+}
+
+criterion_group!(benches, joint_update, pytorch_reference);
+criterion_main!(benches);

@@ -1,0 +1,96 @@
+"""One joint DDPG update of 6 agents in PyTorch, the same computation as
+fmsr-nn's DdpgLearner::learn (benches/ddpg_update.rs): per agent a critic
+update (target actors of all agents, target critic, clipped target, MSE,
+Adam) then an actor update (-Q + action_l2 * mean(mu^2), Adam), batch 256,
+3 x 256 hidden layers, action dims [2, 3, 3, 3, 4, 5], global obs 153, goal 7,
+actor inputs as in the bench. Prints `updates/s threads=T: X`.
+"""
+import sys
+import time
+
+import torch
+import torch.nn as nn
+
+B = 256
+HIDDEN = 256
+LAYERS = 3
+ACTION_DIMS = [2, 3, 3, 3, 4, 5]
+LOCAL_DIMS = [60, 52, 52, 52, 58, 165]
+NEIGHBOURS = [[], [5, 2], [1, 3], [2, 4], [3, 5], [4, 1]]
+OBS, GOAL = 153, 7
+A = sum(ACTION_DIMS)
+GAMMA, L2 = 0.99, 1.0
+
+
+def mlp(i, o, out_act=None):
+    layers, prev = [], i
+    for _ in range(LAYERS):
+        layers += [nn.Linear(prev, HIDDEN), nn.ReLU()]
+        prev = HIDDEN
+    layers.append(nn.Linear(prev, o))
+    if out_act:
+        layers.append(out_act)
+    return nn.Sequential(*layers)
+
+
+def main():
+    torch.manual_seed(0)
+    in_dims = [LOCAL_DIMS[i] + GOAL + sum(ACTION_DIMS[j] for j in NEIGHBOURS[i]) for i in range(6)]
+    cin = OBS + GOAL + A
+    actors = [mlp(d, a, nn.Tanh()) for d, a in zip(in_dims, ACTION_DIMS)]
+    critics = [mlp(cin, 1) for _ in range(6)]
+    t_actors = [mlp(d, a, nn.Tanh()) for d, a in zip(in_dims, ACTION_DIMS)]
+    t_critics = [mlp(cin, 1) for _ in range(6)]
+    for t, o in zip(t_actors + t_critics, actors + critics):
+        t.load_state_dict(o.state_dict())
+        for p in t.parameters():
+            p.requires_grad_(False)
+    a_opt = [torch.optim.Adam(a.parameters(), lr=1e-3, eps=1e-8) for a in actors]
+    c_opt = [torch.optim.Adam(c.parameters(), lr=1e-3, eps=1e-8) for c in critics]
+    og = torch.rand(B, OBS + GOAL) * 2 - 1
+    og_next = torch.rand(B, OBS + GOAL) * 2 - 1
+    acts = torch.rand(B, A) * 2 - 1
+    x = [torch.rand(B, d) * 2 - 1 for d in in_dims]
+    x_next = [torch.rand(B, d) * 2 - 1 for d in in_dims]
+    r = [torch.rand(B, 1) - 2 for _ in range(6)]
+    offs = [sum(ACTION_DIMS[:i]) for i in range(6)]
+
+    def update():
+        with torch.no_grad():
+            a_next = torch.cat([t(xn) for t, xn in zip(t_actors, x_next)], 1)
+            nxt = torch.cat([og_next, a_next], 1)
+        now = torch.cat([og, acts], 1)
+        for i in range(6):
+            with torch.no_grad():
+                y = (r[i] + GAMMA * t_critics[i](nxt)).clamp(-100.0, 0.0)
+            loss = ((critics[i](now) - y) ** 2).mean()
+            c_opt[i].zero_grad(set_to_none=True)
+            loss.backward()
+            c_opt[i].step()
+        for i in range(6):
+            mu = actors[i](x[i])
+            joint = torch.cat([og, acts[:, : offs[i]], mu, acts[:, offs[i] + ACTION_DIMS[i]:]], 1)
+            for p in critics[i].parameters():
+                p.requires_grad_(False)
+            loss = -critics[i](joint).mean() + L2 * (mu ** 2).mean()
+            a_opt[i].zero_grad(set_to_none=True)
+            loss.backward()
+            a_opt[i].step()
+            for p in critics[i].parameters():
+                p.requires_grad_(True)
+
+    iters = int(sys.argv[1]) if len(sys.argv) > 1 else 30
+    for threads in (1, 2):
+        torch.set_num_threads(threads)
+        for _ in range(3):
+            update()
+        start = time.perf_counter()
+        for _ in range(iters):
+            update()
+        rate = iters / (time.perf_counter() - start)
+        print(f"updates/s threads={threads}: {rate:.3f}", flush=True)
+    print(f"torch {torch.__version__}, batch {B}, hidden {LAYERS}x{HIDDEN}, 6 agents", flush=True)
+
+
+if __name__ == "__main__":
+    main()
