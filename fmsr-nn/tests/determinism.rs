@@ -10,7 +10,10 @@ use fmsr_core::agent::{ShareMode, ShareTarget, Sharing};
 use fmsr_graph::{Graph, MetropolisHastings};
 use fmsr_nn::prelude::*;
 
-fn run(config: DdpgConfig, sharing: Option<Sharing>) -> (Vec<Vec<u32>>, Vec<Vec<u32>>, Vec<Vec<u32>>) {
+/// Bit patterns of (actions, losses, final parameters).
+type Trace = (Vec<Vec<u32>>, Vec<Vec<u32>>, Vec<Vec<u32>>);
+
+fn run(config: DdpgConfig, sharing: Option<Sharing>) -> Trace {
     let layout = common::layout(&[2, 3, 3, 1], 9, 3);
     let mut l = DdpgLearner::new(layout.clone(), config, sharing).unwrap();
     let mut actions = Vec::new();
