@@ -1,1 +1,35 @@
-//! fmsr
+//! # fmsr
+//!
+//! Finger-specific Multi-agent Shadow Reward (FMSR) with Information Sharing
+//! (IS) for dexterous in-hand manipulation, in Rust: the facade over the
+//! workspace's crates and the `fmsr` command.
+//!
+//! | crate | what |
+//! |---|---|
+//! | [`graph`] (`fmsr-graph`) | graphs, doubly stochastic mixing matrices, consensus steps (eq. 8) |
+//! | [`core`] (`fmsr-core`) | `Env`/`Agent` traits, occupancy (eq. 1), shadow rewards (eqs. 7, 11-15), HER replay, trainer |
+//! | [`nn`] (`fmsr-nn`) | burn actor/critic networks and the multi-agent DDPG learner |
+//! | [`envs`] (`fmsr-envs`) | the rapier3d Shadow Hand tasks and the `TeamReach` test env |
+//!
+//! ```
+//! use fmsr::prelude::*;
+//!
+//! // The paper's default information-sharing topology and its mixing matrix.
+//! let graph = Graph::shadow_hand();
+//! let sharing = SharingConfig::default().build(&graph).unwrap().unwrap();
+//! assert_eq!(sharing.mixing.n(), 6);
+//! ```
+#![warn(missing_docs)]
+
+pub use fmsr_core as core;
+pub use fmsr_envs as envs;
+pub use fmsr_graph as graph;
+pub use fmsr_nn as nn;
+
+/// Everything most users need, from every crate of the workspace.
+pub mod prelude {
+    pub use fmsr_core::prelude::*;
+    pub use fmsr_envs::prelude::*;
+    pub use fmsr_graph::prelude::*;
+    pub use fmsr_nn::prelude::*;
+}
