@@ -93,6 +93,19 @@ impl DdpgLearner {
                 reason: format!("the mixing matrix has {} nodes but the learner has {n} agents", s.mixing.n()),
             });
         }
+        for (i, a) in spec.agents.iter().enumerate() {
+            if layout.actor_input_dim(i) == 0 || a.action_dim() == 0 {
+                return Err(NnError::InvalidConfig {
+                    key: "agents",
+                    reason: format!(
+                        "agent {i} ({}) has actor input dim {} and action dim {}; both must be positive",
+                        a.name,
+                        layout.actor_input_dim(i),
+                        a.action_dim()
+                    ),
+                });
+            }
+        }
         let device = device.inner();
         let ad_device = device.clone().autodiff();
         let critic_shape = NetShape::mlp(layout.critic_input_dim(), config.hidden, config.layers, 1);
@@ -485,7 +498,11 @@ impl DdpgLearner {
                 let actor = Actor::from_flat(&nets.actor_shape, &nets.actor, ad_device, true)?;
                 let critic = Critic::from_flat(shape, &nets.critic, ad_device, false)?;
                 let mu = actor.forward(matrix(x_now[i].clone(), n, dim, ad_device));
-                let mut parts = vec![matrix(left, n, left_w, ad_device), mu.clone()];
+                let mut parts = Vec::with_capacity(3);
+                if left_w > 0 {
+                    parts.push(matrix(left, n, left_w, ad_device));
+                }
+                parts.push(mu.clone());
                 if right_w > 0 {
                     parts.push(matrix(right, n, right_w, ad_device));
                 }
