@@ -29,6 +29,8 @@
 
 pub mod assets;
 pub mod model;
+#[cfg(feature = "mujoco")]
+pub mod mujoco;
 pub mod physics;
 pub mod rapier;
 
@@ -47,6 +49,8 @@ use fmsr_core::{ContactReadout, Env, env::ObjectContacts};
 pub use self::assets::{HandAssets, fetch_hand_assets};
 pub use self::model::HandObject;
 use self::model::{ACTUATORS, AGENTS, HAND_JOINTS, NUM_TOUCH, PREFIX};
+#[cfg(feature = "mujoco")]
+pub use self::mujoco::{MujocoHand, MujocoHandModel, MujocoSettings, load_mujoco_model};
 pub use self::physics::HandPhysics;
 pub use self::rapier::{RapierHand, RapierHandModel, RapierSettings};
 use crate::error::EnvError;
@@ -72,7 +76,8 @@ pub struct ShadowHandConfig {
     pub object: HandObject,
     /// Steps per episode (default 100).
     pub episode_len: usize,
-    /// Physics steps per env step (default 20, i.e. 0.04 s at 0.002 s).
+    /// Model timesteps (0.002 s) per env step (default 20, i.e. 0.04 s; gymnasium's
+    /// `n_substeps`). The rapier backend covers them with steps of `rapier.timestep`.
     pub substeps: usize,
     /// Steps at zero action after placing the object (default 10).
     pub settle_steps: usize,
@@ -122,7 +127,10 @@ impl Default for ShadowHandConfig {
     }
 }
 
-static MODELS: Mutex<Vec<((PathBuf, HandObject), Arc<RapierHandModel>)>> = Mutex::new(Vec::new());
+/// Loaded models, by assets folder and object.
+type ModelCache = Vec<((PathBuf, HandObject), Arc<RapierHandModel>)>;
+
+static MODELS: Mutex<ModelCache> = Mutex::new(Vec::new());
 
 /// Loads (once per process, then shared) the rapier model of `object` from `assets`.
 pub fn load_rapier_model(assets: &HandAssets, object: HandObject) -> Result<Arc<RapierHandModel>, EnvError> {
@@ -184,7 +192,7 @@ impl ShadowHandConfig {
         if !(self.position_noise.is_finite() && self.position_noise >= 0.0) {
             return bad("position_noise", format!("{} must be >= 0", self.position_noise));
         }
-        if !self.drop_height.is_finite() || !(self.touch_threshold.is_finite() && self.touch_threshold >= 0.0) {
+        if !(self.drop_height.is_finite() && self.touch_threshold.is_finite() && self.touch_threshold >= 0.0) {
             return bad("drop_height", "drop_height and touch_threshold must be finite (threshold >= 0)".into());
         }
         if self.min_active_touch > NUM_TOUCH {

@@ -107,9 +107,6 @@ fn inline_rec(path: &Path, depth: usize) -> Result<String, EnvError> {
         rest = after;
     }
     out.push_str(rest);
-    if depth == 0 {
-        return Ok(out);
-    }
     Ok(out)
 }
 

@@ -9,7 +9,7 @@ use fmsr_core::env::ObjectContacts;
 /// Quaternions are `[w, x, y, z]` (MuJoCo's order); positions in metres, in
 /// the world frame of the MJCF model.
 pub trait HandPhysics {
-    /// The physics timestep of one substep (s).
+    /// The model's timestep, the length of one substep (s; 0.002).
     fn timestep(&self) -> f64;
 
     /// The `ctrlrange` of each of the 20 actuators, in the model's order.
@@ -28,8 +28,9 @@ pub trait HandPhysics {
     /// Sets the 20 actuator controls (clamped to `ctrlrange`, like MuJoCo's `ctrllimited`).
     fn set_ctrl(&mut self, ctrl: &[f64]);
 
-    /// Advances `substeps` timesteps. The touch readings afterwards are those of
-    /// these substeps.
+    /// Advances the model's time by `substeps` x [`HandPhysics::timestep`] (a
+    /// backend may cover that time with fewer, longer steps of its own). The touch
+    /// readings afterwards are those of this interval.
     fn step(&mut self, substeps: usize);
 
     /// The 24 hand joint positions in MuJoCo's `qpos` order.
