@@ -52,6 +52,8 @@ pub struct DdpgLearner {
     offsets: Vec<usize>,
     act_cache: Option<Vec<Actor>>,
     target_cache: Option<(Vec<Actor>, Vec<Critic>)>,
+    /// One single-thread rayon pool per worker thread (empty when `threads == 1`).
+    pools: Vec<rayon::ThreadPool>,
 }
 
 /// One agent's loss and flat gradient.
@@ -134,7 +136,25 @@ impl DdpgLearner {
             offsets.push(perm.len());
             perm.extend_from_slice(&a.action_slots);
         }
+        let workers = config.threads.min(n);
+        let pools = if workers > 1 {
+            (0..workers)
+                .map(|k| {
+                    rayon::ThreadPoolBuilder::new()
+                        .num_threads(1)
+                        .thread_name(move |_| format!("fmsr-nn-agent-worker-{k}"))
+                        .build()
+                        .map_err(|e| NnError::InvalidConfig {
+                            key: "threads",
+                            reason: format!("cannot start worker {k}: {e}"),
+                        })
+                })
+                .collect::<Result<Vec<_>, _>>()?
+        } else {
+            Vec::new()
+        };
         Ok(Self {
+            pools,
             critic_norm: Normalizer::new(og_dim, config.norm_eps, config.clip_obs),
             mixer: sharing.as_ref().map(|s| Mixer::new(&s.mixing)),
             layout,
@@ -446,7 +466,7 @@ impl DdpgLearner {
         let critic_results = {
             let (device, ad_device, shape) = (&self.device, &self.ad_device, &self.critic_shape);
             let agents = &self.agents;
-            par_map(cfg.threads, na, |i| -> Result<LossGrad, NnError> {
+            par_map(&self.pools, na, |i| -> Result<LossGrad, NnError> {
                 let q_next = to_vec(t_critics[i].forward(matrix(next_input.clone(), n, cin, device)), "target q")?;
                 let (lo, hi) = b.q_bounds[i];
                 let y: Vec<f32> =
@@ -481,7 +501,7 @@ impl DdpgLearner {
         let actor_results = {
             let (ad_device, shape) = (&self.ad_device, &self.critic_shape);
             let (agents, offsets, layout) = (&self.agents, &self.offsets, &self.layout);
-            par_map(cfg.threads, na, |i| -> Result<LossGrad, NnError> {
+            par_map(&self.pools, na, |i| -> Result<LossGrad, NnError> {
                 let nets = &agents[i];
                 let dim = nets.actor_shape.layers[0].0;
                 let ai = layout.spec().agents[i].action_dim();
@@ -544,22 +564,27 @@ fn scalar(t: &Tensor<1>) -> Result<f32, NnError> {
     v.first().copied().ok_or(NnError::Backend { what: "loss", reason: "empty tensor".into() })
 }
 
-/// `f(0), ..., f(n - 1)` computed on up to `threads` scoped OS threads
-/// (round robin); the result does not depend on the number of threads.
+/// `f(0), ..., f(n - 1)`: with no pools in order on the calling thread (burn's
+/// kernels then use rayon's global pool), otherwise round robin over the
+/// single-thread `pools`, one scoped OS thread driving each, so the agents run
+/// in parallel and each agent's kernels run on one core (no oversubscription).
 fn par_map<T: Send>(
-    threads: usize,
+    pools: &[rayon::ThreadPool],
     n: usize,
     f: impl Fn(usize) -> Result<T, NnError> + Sync,
 ) -> Result<Vec<T>, NnError> {
-    let t = threads.min(n);
+    let t = pools.len().min(n);
     if t <= 1 {
         return (0..n).map(f).collect();
     }
     let f = &f;
     let mut slots: Vec<Option<Result<T, NnError>>> = (0..n).map(|_| None).collect();
     std::thread::scope(|s| {
-        let handles: Vec<_> =
-            (0..t).map(|k| s.spawn(move || (k..n).step_by(t).map(|i| (i, f(i))).collect::<Vec<_>>())).collect();
+        let handles: Vec<_> = pools[..t]
+            .iter()
+            .enumerate()
+            .map(|(k, pool)| s.spawn(move || pool.install(|| (k..n).step_by(t).map(|i| (i, f(i))).collect::<Vec<_>>())))
+            .collect();
         for h in handles {
             match h.join() {
                 Ok(done) => {

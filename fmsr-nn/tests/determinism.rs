@@ -62,3 +62,23 @@ fn other_seed_other_networks() {
     let b = run(DdpgConfig::new().with_hidden(32).with_seed(2), None);
     assert_ne!(a.2, b.2);
 }
+
+#[test]
+fn thread_count_does_not_change_results_at_paper_sizes() {
+    // Batch 256 x 3 x 256 hidden: large enough for burn's matmuls to go multi-threaded
+    // (on rayon's global pool with 1 worker thread, single-threaded inside each worker otherwise).
+    let layout = common::layout(&[2, 3, 3, 3, 4, 5], 153, 7);
+    let config = DdpgConfig::new().with_seed(3);
+    let trace = |threads: usize| {
+        let mut l = DdpgLearner::new(layout.clone(), config.clone().with_threads(threads), None).unwrap();
+        let mut out = Vec::new();
+        for step in 0..2 {
+            let stats = l.learn(&common::batch(&layout, 256, step)).unwrap();
+            out.push(common::bits(&stats.critic_loss));
+            out.push(common::bits(&stats.actor_loss));
+        }
+        out.extend((0..6).map(|i| common::bits(l.actor_params(i).unwrap())));
+        out
+    };
+    assert_eq!(trace(1), trace(2));
+}
