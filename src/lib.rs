@@ -21,6 +21,10 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod evaluate;
+pub mod experiment;
+pub mod run;
+
 pub use fmsr_core as core;
 pub use fmsr_envs as envs;
 pub use fmsr_graph as graph;

@@ -1,1 +1,192 @@
-fn main() {}
+//! The `fmsr` command: train, evaluate and report the paper's experiments.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use fmsr::experiment::{Engine, ExperimentConfig, ExperimentError};
+use fmsr::run::{self, RunDir};
+use fmsr_core::prelude::*;
+
+/// Finger-specific Multi-agent Shadow Reward with Information Sharing.
+#[derive(Debug, Parser)]
+#[command(name = "fmsr", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Train one experiment; writes config, logs and a checkpoint per epoch to the run directory.
+    Train(TrainArgs),
+    /// Evaluate a trained run on the fixed test set (success, contacts, grasp measures, failure types).
+    Eval(EvalArgs),
+    /// The main job: train the default experiment (block, Dense+FMSR+IS, rapier, quick budget),
+    /// evaluate it and write the report.
+    Run(RunArgs),
+}
+
+#[derive(Debug, clap::Args)]
+struct TrainArgs {
+    /// The experiment (TOML); with --resume the run's own config.toml is used.
+    #[arg(long, default_value = "configs/block_dense_fmsr_is_quick.toml")]
+    config: PathBuf,
+    /// Physics engine, overriding the config.
+    #[arg(long, value_enum)]
+    engine: Option<EngineArg>,
+    /// Seed of the trainer (and of the networks), overriding the config.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Number of epochs, overriding the config (with --resume: train up to this many).
+    #[arg(long)]
+    epochs: Option<usize>,
+    /// Run directory (default `runs/<name>`).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Continue the run in the run directory from its last checkpoint.
+    #[arg(long)]
+    resume: bool,
+}
+
+#[derive(Debug, clap::Args)]
+struct EvalArgs {
+    /// The run directory to evaluate.
+    run: PathBuf,
+    /// Test episodes, overriding the config (paper: 100).
+    #[arg(long)]
+    episodes: Option<usize>,
+}
+
+#[derive(Debug, clap::Args)]
+struct RunArgs {
+    /// The experiment (TOML).
+    #[arg(long, default_value = "configs/block_dense_fmsr_is_quick.toml")]
+    config: PathBuf,
+    /// Run directory (default `runs/<name>`); an existing run there is resumed.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+enum EngineArg {
+    Rapier,
+    Mujoco,
+}
+
+fn main() -> Result<()> {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Train(args) => train(&args).map(|_| ()),
+        Command::Eval(args) => eval(&args),
+        Command::Run(args) => {
+            let name = ExperimentConfig::load(&args.config)?.name;
+            let out = args.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(name));
+            let train_args = TrainArgs {
+                config: args.config.clone(),
+                engine: None,
+                seed: None,
+                epochs: None,
+                resume: RunDir::new(&out).checkpoint().exists(),
+                out: Some(out),
+            };
+            let dir = train(&train_args)?;
+            eval(&EvalArgs { run: dir.root().to_path_buf(), episodes: None })?;
+            println!("run, logs and evaluation in {}", dir.root().display());
+            Ok(())
+        }
+    }
+}
+
+fn resolve_config(args: &TrainArgs) -> Result<(ExperimentConfig, RunDir, bool)> {
+    let config = ExperimentConfig::load(&args.config).with_context(|| "reading the experiment")?;
+    let dir = RunDir::new(args.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(&config.name)));
+    let resume = args.resume;
+    let mut config = if resume { dir.load_config().context("reading the run's config.toml")? } else { config };
+    if let Some(e) = args.engine {
+        config.engine = match e {
+            EngineArg::Rapier => Engine::Rapier,
+            EngineArg::Mujoco => Engine::Mujoco,
+        };
+    }
+    if let Some(seed) = args.seed {
+        if resume && seed != config.trainer.seed {
+            bail!("--seed {seed} differs from the run's seed {}: a resumed run keeps its seed", config.trainer.seed);
+        }
+        config.trainer.seed = seed;
+    }
+    if let Some(epochs) = args.epochs {
+        config.trainer.epochs = epochs;
+    }
+    config.validate()?;
+    Ok((config, dir, resume))
+}
+
+fn progress_bar(config: &ExperimentConfig, done: usize) -> ProgressBar {
+    let bar = ProgressBar::new(config.trainer.epochs as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{prefix} [{bar:30}] epoch {pos}/{len} ETA {eta} {msg}")
+            .expect("a valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(format!("{} ({})", config.name, config.method.label()));
+    bar.set_position(done as u64);
+    bar
+}
+
+fn epoch_message(s: &EpochStats) -> String {
+    format!(
+        "success {:.2} | train {:.2} | {:.0} steps/s | {:.1} updates/s",
+        s.success_rate, s.train_success_rate, s.env_steps_per_sec, s.updates_per_sec
+    )
+}
+
+fn train(args: &TrainArgs) -> Result<RunDir> {
+    let (config, dir, resume) = resolve_config(args)?;
+    let done = if resume { dir.load_metrics().map(|m| m.len()).unwrap_or(0) } else { 0 };
+    eprintln!(
+        "training {} ({}, {:?}) for {} epochs into {}{}",
+        config.name,
+        config.method.label(),
+        config.engine,
+        config.trainer.epochs,
+        dir.root().display(),
+        if resume { " (resumed)" } else { "" }
+    );
+    let bar = progress_bar(&config, done);
+    let on_epoch = |s: &EpochStats| {
+        bar.set_message(epoch_message(s));
+        bar.inc(1);
+    };
+    match config.engine {
+        Engine::Rapier => {
+            let env = config.env_config().init().context("building the rapier Shadow Hand")?;
+            run::train(&config, env, &dir, resume, on_epoch)?;
+        }
+        Engine::Mujoco => return Err(ExperimentError::EngineUnavailable.into()),
+    }
+    bar.finish();
+    Ok(dir)
+}
+
+fn eval(args: &EvalArgs) -> Result<()> {
+    let dir = RunDir::new(&args.run);
+    let mut config = dir.load_config().context("reading the run's config.toml")?;
+    if let Some(n) = args.episodes {
+        config.eval.episodes = n;
+    }
+    config.validate()?;
+    let summary = match config.engine {
+        Engine::Rapier => {
+            let env = config.env_config().init().context("building the rapier Shadow Hand")?;
+            let dt = fmsr::experiment::MODEL_TIMESTEP * config.env.substeps as f64;
+            fmsr::evaluate::evaluate_run(&config, env, &dir, dt)?
+        }
+        Engine::Mujoco => return Err(ExperimentError::EngineUnavailable.into()),
+    };
+    println!("{}", summary.to_markdown());
+    println!("evaluation written to {}", dir.eval_json().display());
+    Ok(())
+}

@@ -25,7 +25,7 @@ use crate::error::CoreError;
 use crate::occupancy::{DiscountedOccupancy, OccupancyEstimator};
 use crate::replay::{Episode, HerConfig, ReplayBuffer};
 use crate::shadow::AgentRewards;
-use crate::spec::{JointAction, StepInfo};
+use crate::spec::{JointAction, StepInfo, StepOutcome};
 
 /// Settings of the training loop (defaults: the paper's, DESIGN.md 3.10).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -296,6 +296,18 @@ impl<E: Env, A: Agent> Trainer<E, A> {
         &self.q_bounds
     }
 
+    /// How actor inputs are assembled.
+    #[must_use]
+    pub fn layout(&self) -> &ObservationLayout {
+        &self.layout
+    }
+
+    /// The environment.
+    #[must_use]
+    pub fn env(&self) -> &E {
+        &self.env
+    }
+
     /// The replay buffer.
     #[must_use]
     pub fn replay(&self) -> &ReplayBuffer {
@@ -305,6 +317,17 @@ impl<E: Env, A: Agent> Trainer<E, A> {
     /// Runs one episode from `seed`; with `explore`, exploration noise and random
     /// actions are drawn from the trainer's RNG.
     pub fn rollout(&mut self, seed: u64, explore: bool) -> Result<Episode, CoreError> {
+        self.rollout_with(seed, explore, &mut |_, _| {})
+    }
+
+    /// As [`Trainer::rollout`], calling `on_step(env, outcome)` after every step
+    /// (e.g. to read contacts for the grasp metrics).
+    pub fn rollout_with(
+        &mut self,
+        seed: u64,
+        explore: bool,
+        on_step: &mut dyn FnMut(&E, &StepOutcome),
+    ) -> Result<Episode, CoreError> {
         let spec = self.env.spec().clone();
         let mut obs = self.env.reset(seed).map_err(env_err)?;
         obs.validate(&spec)?;
@@ -331,6 +354,7 @@ impl<E: Env, A: Agent> Trainer<E, A> {
             }
             let outcome = self.env.step(&joint).map_err(env_err)?;
             outcome.observation.validate(&spec)?;
+            on_step(&self.env, &outcome);
             if outcome.info.features.len() != spec.features.len() {
                 return Err(CoreError::Dimension {
                     what: "step features",

@@ -1,0 +1,181 @@
+//! Run directories: configuration, per-epoch logs, checkpoint and evaluation
+//! of one training run, written so that a kill loses at most the current epoch.
+//!
+//! ```text
+//! runs/<name>/config.toml      the resolved experiment
+//! runs/<name>/checkpoint.bin   written atomically after every epoch
+//! runs/<name>/metrics.jsonl    one fmsr_core::trainer::EpochStats per line
+//! runs/<name>/metrics.csv      the same, flat
+//! runs/<name>/eval.json        written by `fmsr eval`
+//! ```
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use fmsr_core::prelude::*;
+use fmsr_core::trainer::write_atomic;
+
+use crate::experiment::{ExperimentConfig, ExperimentError};
+
+/// The files of one run.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RunDir {
+    root: PathBuf,
+}
+
+impl RunDir {
+    /// The run kept in `root`.
+    #[must_use]
+    pub fn new(root: impl Into<PathBuf>) -> Self {
+        Self { root: root.into() }
+    }
+
+    /// The directory.
+    #[must_use]
+    pub fn root(&self) -> &Path {
+        &self.root
+    }
+
+    /// `config.toml`.
+    #[must_use]
+    pub fn config(&self) -> PathBuf {
+        self.root.join("config.toml")
+    }
+
+    /// `checkpoint.bin`.
+    #[must_use]
+    pub fn checkpoint(&self) -> PathBuf {
+        self.root.join("checkpoint.bin")
+    }
+
+    /// `metrics.jsonl`.
+    #[must_use]
+    pub fn metrics_jsonl(&self) -> PathBuf {
+        self.root.join("metrics.jsonl")
+    }
+
+    /// `metrics.csv`.
+    #[must_use]
+    pub fn metrics_csv(&self) -> PathBuf {
+        self.root.join("metrics.csv")
+    }
+
+    /// `eval.json`.
+    #[must_use]
+    pub fn eval_json(&self) -> PathBuf {
+        self.root.join("eval.json")
+    }
+
+    /// Reads the run's configuration.
+    pub fn load_config(&self) -> Result<ExperimentConfig, ExperimentError> {
+        ExperimentConfig::load(&self.config())
+    }
+
+    /// Reads the per-epoch statistics.
+    pub fn load_metrics(&self) -> Result<Vec<EpochStats>, ExperimentError> {
+        let path = self.metrics_jsonl();
+        let text =
+            std::fs::read_to_string(&path).map_err(|source| ExperimentError::Io { path: path.clone(), source })?;
+        text.lines()
+            .filter(|l| !l.trim().is_empty())
+            .enumerate()
+            .map(|(i, l)| {
+                serde_json::from_str(l)
+                    .map_err(|e| ExperimentError::Parse { path: path.clone(), message: format!("line {}: {e}", i + 1) })
+            })
+            .collect()
+    }
+
+    /// Writes the per-epoch statistics (JSON lines and CSV), atomically.
+    pub fn write_metrics(&self, history: &[EpochStats]) -> Result<(), ExperimentError> {
+        let mut jsonl = String::new();
+        for s in history {
+            let line = serde_json::to_string(s)
+                .map_err(|e| ExperimentError::Config { key: "metrics".into(), reason: e.to_string() })?;
+            jsonl.push_str(&line);
+            jsonl.push('\n');
+        }
+        write_atomic(&self.metrics_jsonl(), jsonl.as_bytes())?;
+        let mut csv = String::from(
+            "epoch,success_rate,train_success_rate,drop_rate,env_steps,updates,env_steps_per_sec,updates_per_sec,seconds",
+        );
+        let (k, n) = history.first().map_or((0, 0), |s| (s.occupancy.len(), s.returns.len()));
+        for i in 0..k {
+            let _ = write!(csv, ",occupancy_{i},eval_feature_rate_{i}");
+        }
+        for i in 0..n {
+            let _ = write!(csv, ",return_{i},critic_loss_{i},actor_loss_{i}");
+        }
+        csv.push('\n');
+        for s in history {
+            let _ = write!(
+                csv,
+                "{},{},{},{},{},{},{:.1},{:.2},{:.2}",
+                s.epoch,
+                s.success_rate,
+                s.train_success_rate,
+                s.drop_rate,
+                s.env_steps,
+                s.updates,
+                s.env_steps_per_sec,
+                s.updates_per_sec,
+                s.seconds
+            );
+            for i in 0..k {
+                let _ = write!(csv, ",{},{}", s.occupancy[i], s.eval_feature_rates.get(i).copied().unwrap_or(0.0));
+            }
+            for i in 0..n {
+                let _ = write!(
+                    csv,
+                    ",{},{},{}",
+                    s.returns[i],
+                    s.critic_loss.get(i).copied().unwrap_or(0.0),
+                    s.actor_loss.get(i).copied().unwrap_or(0.0)
+                );
+            }
+            csv.push('\n');
+        }
+        write_atomic(&self.metrics_csv(), csv.as_bytes())?;
+        Ok(())
+    }
+}
+
+/// Trains `config` on `env` in `dir`: a new run (refusing to overwrite one that
+/// has a checkpoint) or, with `resume`, the continuation of the run in `dir`.
+/// After every epoch the checkpoint and the logs are written and `on_epoch` is
+/// called.
+pub fn train<E: Env>(
+    config: &ExperimentConfig,
+    env: E,
+    dir: &RunDir,
+    resume: bool,
+    mut on_epoch: impl FnMut(&EpochStats),
+) -> Result<Trainer<E, fmsr_nn::DdpgLearner>, ExperimentError> {
+    let mut trainer = config.build_trainer(env)?;
+    if resume {
+        trainer.load_checkpoint(&dir.checkpoint())?;
+    } else if dir.checkpoint().exists() {
+        return Err(ExperimentError::Config {
+            key: "out".into(),
+            reason: format!("{} already holds a run: pass --resume or choose another --out", dir.root().display()),
+        });
+    }
+    write_atomic(&dir.config(), config.to_toml()?.as_bytes())?;
+    dir.write_metrics(trainer.history())?;
+    let replay = config.run.checkpoint_replay;
+    let mut failure: Option<ExperimentError> = None;
+    let result = trainer.train(|t, stats| {
+        t.save_checkpoint(&dir.checkpoint(), replay)?;
+        if let Err(e) = dir.write_metrics(t.history()) {
+            failure = Some(e);
+            return Err(CoreError::InvalidConfig { key: "metrics".into(), reason: "could not be written".into() });
+        }
+        on_epoch(stats);
+        Ok(())
+    });
+    match (result, failure) {
+        (_, Some(e)) => Err(e),
+        (Err(e), None) => Err(e.into()),
+        (Ok(()), None) => Ok(trainer),
+    }
+}
