@@ -119,6 +119,16 @@ pub enum CoreError {
         /// What is wrong with it.
         reason: String,
     },
+    /// A singular value decomposition did not converge.
+    #[error("{what}: the SVD of the {rows} x {cols} matrix did not converge")]
+    Svd {
+        /// What the matrix is.
+        what: &'static str,
+        /// Its rows.
+        rows: usize,
+        /// Its columns.
+        cols: usize,
+    },
 }
 
 /// Checks that `values` has `expected` entries, all finite.

@@ -62,6 +62,7 @@ pub mod agent;
 pub mod config;
 pub mod env;
 pub mod error;
+pub mod metrics;
 pub mod occupancy;
 pub mod replay;
 pub mod shadow;
@@ -83,6 +84,10 @@ pub mod prelude {
     pub use crate::config::{Method, MixingChoice, ShadowConfig, SharingConfig};
     pub use crate::env::{ContactPoint, ContactReadout, Env, ObjectContacts};
     pub use crate::error::CoreError;
+    pub use crate::metrics::{
+        EpisodeOutcome, EpisodeSummary, FailureCounts, FailureRow, FailureType, GraspQuality, GraspTrace, MeanStd,
+        StabilityRow,
+    };
     pub use crate::occupancy::{Averaging, DiscountedOccupancy, OccupancyEstimator};
     pub use crate::replay::{Episode, HerConfig, ReplayBuffer};
     pub use crate::shadow::{AgentReward, AgentRewards, LogUtility, RewardAssignment, ShadowMode, ShadowReward};
