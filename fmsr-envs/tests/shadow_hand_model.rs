@@ -58,7 +58,7 @@ fn egg_variant_loads_and_rests() {
         assert!(!out.info.dropped);
     }
     let (p, _) = env.physics().object_pose();
-    // MuJoCo 3.17 rests the egg at 0.1713 m; our convex hull of the ellipsoid sits a few mm lower.
-    assert!((0.155..0.18).contains(&p[2]), "egg height {}", p[2]);
-    assert!(env.palm_distance() < env.config().safe_radius);
+    // MuJoCo 3.17 rests the egg at 0.1713 m (no randomisation; 0.1702 here); allow 5 mm.
+    assert!((0.1663..0.1763).contains(&p[2]), "egg height {}", p[2]);
+    assert!(env.palm_distance() < env.config().safe_radius, "palm distance {}", env.palm_distance());
 }

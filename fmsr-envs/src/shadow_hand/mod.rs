@@ -87,7 +87,9 @@ pub struct ShadowHandConfig {
     pub reward: RewardType,
     /// Success threshold on the angle error (rad; 0.1 in training (default), 0.4 in testing).
     pub success_threshold: f32,
-    /// `rho`: the `safe_region` radius around the palm centre (m, default 0.06).
+    /// `rho`: the `safe_region` radius around the palm centre, the centroid of the
+    /// 8 palm touch sites (m, default 0.08; the paper gives no value). At rest at
+    /// mid controls the block's centre is 4.5 cm and the egg's 6.4 cm from it.
     pub safe_radius: f64,
     /// `tau`: active touch sensors for the `contacts` feature (default 10).
     pub min_active_touch: usize,
@@ -115,7 +117,7 @@ impl Default for ShadowHandConfig {
             position_noise: 0.005,
             reward: RewardType::Dense,
             success_threshold: 0.1,
-            safe_radius: 0.06,
+            safe_radius: 0.08,
             min_active_touch: 10,
             touch_threshold: 0.0,
             touch_obs: TouchObs::Boolean,

@@ -6,7 +6,7 @@
 //!   the distinct `(contype, conaffinity)` classes of the model's geoms get one
 //!   collision-group bit each, and each class's filter holds the classes it collides
 //!   with under MuJoCo's rule. A symmetric relation over at most 32 classes is encoded
-//!   exactly by rapier's AND test, so no physics hook runs (contact recycling stays on);
+//!   exactly by rapier's AND test, so no physics hook runs for them (contact recycling stays on);
 //! - the **J1/J0 coupling**: the loader couples the two joints of the `T_xxJ1c`
 //!   tendon as co-actuated (`q_k = (c_k / c_0) q_0`), which gives the distal joint
 //!   the wrong sign. That tendon is a length constraint (range +-0.001), so the
@@ -15,15 +15,21 @@
 //! - the **target** body is a ghost: it gets no collider and is fixed;
 //! - the **object's** mass and inertia are set explicitly to MuJoCo's (box: from
 //!   its density 567; egg: the solid ellipsoid of density 1000, collided as the
-//!   loader's convex icosphere hull), and its free-joint damping 0.01 becomes
+//!   convex hull of 1106 points on the ellipsoid, in place of the loader's 12-vertex hull), and its free-joint damping 0.01 becomes
 //!   rapier body damping `0.01 / m` (linear) and `0.01 / I` (angular);
 //! - **touch sensors**: each `robot0:TS_*` site box on its body reads the summed
 //!   normal force (impulse / dt) of the object's contact points inside it, averaged
 //!   over the substeps of one [`HandPhysics::step`].
 //!
-//! Not modelled: the 19 `<contact><pair>` finger-finger/finger-thumb pairs of
-//! `shared.xml` (hand geoms never collide with each other here), tendon limits
-//! other than the J1/J0 coupling, MuJoCo's soft-contact `solref`/`solimp`.
+//! - the 19 **`<contact><pair>`**s of `shared.xml` (finger-finger and finger-thumb,
+//!   which MuJoCo collides regardless of `contype`): their colliders share one more
+//!   group bit, and a physics hook on those colliders drops the pairs that only that
+//!   bit admitted and are not listed.
+//!
+//! Not modelled: the pairs' `condim="1"` (they keep friction), the slack of the
+//! J1/J0 tendon (MuJoCo's `T_xxJ1c` allows `|c_0 q_0 + c_k q_k| <= 0.001`, i.e.
+//! +-0.14 rad on J0; ours is an equality), the other tendon limits, MuJoCo's
+//! soft-contact `solref`/`solimp` and geom `margin`.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -128,6 +134,8 @@ pub struct RapierHandModel {
     palm_center_local: Vector,
     /// Collision groups per (body index, collider index in body).
     groups: HashMap<(usize, usize), InteractionGroups>,
+    /// The `<contact><pair>` geoms, as (body index, collider index in body).
+    pairs: Vec<((usize, usize), (usize, usize))>,
     gravity: Vector,
     /// The model's `<option timestep>` (0.002 s).
     model_timestep: f64,
@@ -267,6 +275,18 @@ impl RapierHandModel {
         let mut groups: HashMap<(usize, usize), InteractionGroups> =
             collider_class.into_iter().map(|(key, k)| (key, class_groups[k])).collect();
         groups.insert((usize::MAX, 0), class_groups[ground_class]);
+        let pairs = robot
+            .contact_pairs
+            .iter()
+            .filter_map(|p| {
+                let a = robot.geom_name_to_collider.get(&p.geom1)?;
+                let b = robot.geom_name_to_collider.get(&p.geom2)?;
+                Some((*a, *b))
+            })
+            .collect::<Vec<_>>();
+        if pairs.len() != robot.contact_pairs.len() {
+            return Err(EnvError::Model("a <contact><pair> names a geom without a collider".into()));
+        }
 
         // Target: a ghost.
         let target = *robot.body_name_to_idx.get("target").ok_or_else(|| missing("body", "target"))?;
@@ -292,6 +312,15 @@ impl RapierHandModel {
         let obj = &mut robot.bodies[object_body];
         for c in &mut obj.colliders {
             c.set_density(0.0);
+        }
+        if object == HandObject::Egg {
+            // The loader's ellipsoid is the hull of a 12-vertex icosphere (it rests 7 mm
+            // low); use the hull of a 24 x 48 latitude-longitude sampling instead.
+            let shape = SharedShape::convex_hull(&ellipsoid_points([0.03, 0.03, 0.04], 24, 48))
+                .ok_or_else(|| EnvError::Model("convex hull of the egg failed".into()))?;
+            if let Some(c) = obj.colliders.first_mut() {
+                c.set_shape(shape);
+            }
         }
         obj.body.set_additional_mass_properties(
             MassProperties::new(
@@ -329,6 +358,7 @@ impl RapierHandModel {
             palm_body,
             palm_center_local,
             groups,
+            pairs,
             gravity,
             model_timestep,
         })
@@ -369,6 +399,7 @@ pub struct RapierHand {
     palm: RigidBodyHandle,
     /// (multibody joint handle, free axis) of each hand joint.
     joint_dofs: Vec<(MultibodyJointHandle, usize)>,
+    hooks: PairHooks,
     ctrl: Vec<Real>,
     touch_sum: Vec<f64>,
     touch: Vec<f64>,
@@ -423,6 +454,27 @@ impl RapierHand {
                 }
             }
         }
+        // `<contact><pair>`: the pair's colliders share PAIR_BIT, and the hook keeps,
+        // among the pairs that bit lets through, only the listed ones.
+        let mut hooks = PairHooks::default();
+        let collider_of =
+            |(b, c): (usize, usize)| handles.bodies[b].as_ref().and_then(|b| b.colliders.get(c)).map(|c| c.handle);
+        for &(a, b) in &model.pairs {
+            let (Some(a), Some(b)) = (collider_of(a), collider_of(b)) else { continue };
+            hooks.pairs.insert((a, b));
+            hooks.pairs.insert((b, a));
+            for h in [a, b] {
+                if let Some(col) = world.colliders.get_mut(h) {
+                    let g = col.collision_groups();
+                    col.set_collision_groups(InteractionGroups::new(
+                        g.memberships | PAIR_BIT,
+                        g.filter | PAIR_BIT,
+                        InteractionTestMode::And,
+                    ));
+                    col.set_active_hooks(col.active_hooks() | ActiveHooks::FILTER_CONTACT_PAIRS);
+                }
+            }
+        }
         // Ground plane at z = 0 (the scene's floor, which the loader skips).
         let ground = world.bodies.insert(RigidBodyBuilder::fixed());
         let ground_groups = model.groups[&(usize::MAX, 0)];
@@ -468,6 +520,7 @@ impl RapierHand {
             object_collider,
             palm,
             joint_dofs,
+            hooks,
             ctrl: vec![0.0; n_act],
             touch_sum: vec![0.0; NUM_TOUCH],
             touch: vec![0.0; NUM_TOUCH],
@@ -546,6 +599,50 @@ impl RapierHand {
     }
 }
 
+/// Points on the ellipsoid of semi-axes `r`: the poles and `lat - 1` rings of `lon` points.
+fn ellipsoid_points(r: [f64; 3], lat: usize, lon: usize) -> Vec<Vector> {
+    let mut pts = vec![Vector::new(0.0, 0.0, r[2] as Real), Vector::new(0.0, 0.0, -r[2] as Real)];
+    for i in 1..lat {
+        let theta = std::f64::consts::PI * i as f64 / lat as f64;
+        for j in 0..lon {
+            let phi = std::f64::consts::TAU * j as f64 / lon as f64;
+            pts.push(Vector::new(
+                (r[0] * theta.sin() * phi.cos()) as Real,
+                (r[1] * theta.sin() * phi.sin()) as Real,
+                (r[2] * theta.cos()) as Real,
+            ));
+        }
+    }
+    pts
+}
+
+/// The collision-group bit shared by the colliders of `<contact><pair>` elements.
+const PAIR_BIT: Group = Group::GROUP_32;
+
+/// Keeps the explicit `<contact><pair>`s among the pairs [`PAIR_BIT`] admits.
+#[derive(Debug, Default, Clone)]
+struct PairHooks {
+    pairs: std::collections::HashSet<(ColliderHandle, ColliderHandle)>,
+}
+
+impl PhysicsHooks for PairHooks {
+    fn filter_contact_pair(&self, context: &PairFilterContext) -> Option<SolverFlags> {
+        if self.pairs.contains(&(context.collider1, context.collider2)) {
+            return Some(SolverFlags::default());
+        }
+        let strip = |h: ColliderHandle| {
+            context.colliders.get(h).map(|c| {
+                let g = c.collision_groups();
+                InteractionGroups::new(g.memberships - PAIR_BIT, g.filter - PAIR_BIT, InteractionTestMode::And)
+            })
+        };
+        match (strip(context.collider1), strip(context.collider2)) {
+            (Some(a), Some(b)) if a.test(b) => Some(SolverFlags::default()),
+            _ => None,
+        }
+    }
+}
+
 fn quat_wxyz(q: Rotation) -> [f64; 4] {
     [f64::from(q.w), f64::from(q.x), f64::from(q.y), f64::from(q.z)]
 }
@@ -596,7 +693,7 @@ impl HandPhysics for RapierHand {
         let duration = substeps as f64 * self.model.model_timestep;
         let steps = ((duration / self.settings.timestep).round() as usize).max(1);
         for _ in 0..steps {
-            self.world.step();
+            self.world.step_with_events(&self.hooks, &());
             self.accumulate_touch();
         }
         let n = steps as f64;
