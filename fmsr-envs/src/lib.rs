@@ -4,7 +4,8 @@
 //!
 //! - [`team_reach::TeamReach`]: a small, fast multi-agent goal-conditioned test
 //!   environment (no physics engine) used by tests and examples.
-//! - The Shadow Hand block and egg rotation tasks on rapier3d (default).
+//! - [`shadow_hand::ShadowHand`]: the Shadow Hand block and egg rotation tasks with
+//!   92 touch sensors, on rapier3d (default; the model is fetched with pip on first use).
 #![warn(missing_docs)]
 
 pub mod error;
