@@ -135,3 +135,29 @@ fn settings_table() {
         );
     }
 }
+
+#[test]
+#[ignore = "prints env steps/s of batched stepping; about 20 s"]
+fn batch_scaling() {
+    use fmsr_envs::shadow_hand::{ShadowHand, step_batch};
+    println!("| envs | rayon threads | env steps/s |");
+    println!("|---|---|---|");
+    for n in [1usize, 2, 4, 8] {
+        let mut envs: Vec<ShadowHand> = (0..n).map(|_| ShadowHandConfig::default().init().unwrap()).collect::<Vec<_>>();
+        for (i, e) in envs.iter_mut().enumerate() {
+            e.reset(i as u64).unwrap();
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let t = Instant::now();
+        let steps = 100;
+        for _ in 0..steps {
+            let actions: Vec<JointAction> =
+                (0..n).map(|_| JointAction((0..20).map(|_| rng.random_range(-1.0..1.0)).collect())).collect();
+            for r in step_batch(&mut envs, &actions) {
+                r.unwrap();
+            }
+        }
+        let rate = (n * steps) as f64 / t.elapsed().as_secs_f64();
+        println!("| {n} | {} | {rate:.0} |", rayon::current_num_threads());
+    }
+}
