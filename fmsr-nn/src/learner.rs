@@ -70,6 +70,20 @@ impl DdpgLearner {
         Self::with_parts(layout, config, sharing, Box::new(SingleProcess), Device::flex())
     }
 
+    /// A learner on burn's `flex` CPU device that averages gradients and
+    /// normaliser statistics over workers with `comm`.
+    ///
+    /// # Errors
+    /// As [`DdpgLearner::new`].
+    pub fn with_communicator(
+        layout: ObservationLayout,
+        config: DdpgConfig,
+        sharing: Option<Sharing>,
+        comm: Box<dyn Communicator>,
+    ) -> Result<Self, NnError> {
+        Self::with_parts(layout, config, sharing, comm, Device::flex())
+    }
+
     /// A learner on `device` (any burn device; its autodiff twin is used for
     /// gradients) that averages gradients and normaliser statistics with `comm`.
     ///

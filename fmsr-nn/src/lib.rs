@@ -61,6 +61,18 @@
 //! each agent's computation is independent of the others and of the thread
 //! that runs it, so results are bit-identical for any thread count.
 //!
+//! # Why a flat Adam rather than burn's `AdamConfig`
+//!
+//! The learner keeps every network as one flat `f32` vector and builds burn
+//! [`Actor`] / [`Critic`] modules (`#[derive(Module)]`, burn `Linear` layers)
+//! from it for each pass; gradients are read back with `Tensor::grad` into
+//! the same flat layout. Everything that acts on parameters across agents or
+//! workers then works on plain slices: the `Communicator`'s all-reduce of each
+//! flattened gradient (HER baselines' MPI Adam does exactly this), gradient
+//! and parameter mixing over the trunk ranges, polyak averaging, and
+//! bit-exact checkpoints of parameters and Adam moments ([`FlatAdam`]), with
+//! no dependence on burn's parameter ids or record formats.
+//!
 //! # Information sharing (paper eq. 8, DESIGN.md 3.7)
 //!
 //! With a [`fmsr_core::agent::Sharing`] of mixing matrix `M`:

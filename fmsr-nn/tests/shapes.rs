@@ -104,3 +104,9 @@ fn bad_configs_are_errors() {
     };
     assert!(matches!(DdpgLearner::new(layout, small(), Some(sharing)), Err(NnError::Sharing { .. })));
 }
+
+#[test]
+fn learner_can_move_between_threads() {
+    fn assert_send<T: Send>() {}
+    assert_send::<DdpgLearner>();
+}
