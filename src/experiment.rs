@@ -70,9 +70,12 @@ impl GraphConfig {
             Some(edges) => edges
                 .iter()
                 .map(|(a, b)| Ok((spec.agent_index(a)?, spec.agent_index(b)?)))
-                .collect::<Result<Vec<_>, CoreError>>()?,
+                .collect::<Result<Vec<_>, CoreError>>()
+                .map_err(|source| ExperimentError::Invalid { key: "graph.edges", source })?,
         };
-        Ok(Graph::from_edges(names.len(), &edges).and_then(|g| g.with_names(names)).map_err(CoreError::from)?)
+        Graph::from_edges(names.len(), &edges)
+            .and_then(|g| g.with_names(names))
+            .map_err(|e| ExperimentError::Invalid { key: "graph.edges", source: e.into() })
     }
 }
 
@@ -184,6 +187,16 @@ pub enum ExperimentError {
         #[source]
         source: std::io::Error,
     },
+    /// A value that only the environment can check (agents, features, graph,
+    /// mixing matrix) is wrong.
+    #[error("config: `{key}`: {source}")]
+    Invalid {
+        /// The key.
+        key: &'static str,
+        /// What is wrong.
+        #[source]
+        source: CoreError,
+    },
     /// A core error (trainer, checkpoint, graph).
     #[error(transparent)]
     Core(#[from] CoreError),
@@ -273,9 +286,17 @@ impl ExperimentConfig {
     pub fn build_trainer<E: Env>(&self, env: E) -> Result<Trainer<E, DdpgLearner>, ExperimentError> {
         let spec = env.spec().clone();
         let graph = self.graph.build(&spec)?;
-        let layout = ObservationLayout::from_graph(spec.clone(), &graph)?;
+        let layout = ObservationLayout::from_graph(spec.clone(), &graph)
+            .map_err(|source| ExperimentError::Invalid { key: "graph.edges", source })?;
         let trainer_config = self.trainer_config();
-        let sharing = self.sharing_config().build(&graph)?;
+        trainer_config
+            .shadow
+            .agent_rewards(&spec)
+            .map_err(|source| ExperimentError::Invalid { key: "trainer.shadow.assignment", source })?;
+        let sharing = self
+            .sharing_config()
+            .build(&graph)
+            .map_err(|source| ExperimentError::Invalid { key: "sharing.mixing", source })?;
         let ddpg = self
             .ddpg
             .clone()

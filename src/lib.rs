@@ -23,6 +23,7 @@
 
 pub mod evaluate;
 pub mod experiment;
+pub mod report;
 pub mod run;
 
 pub use fmsr_core as core;

@@ -24,6 +24,8 @@ enum Command {
     Train(TrainArgs),
     /// Evaluate a trained run on the fixed test set (success, contacts, grasp measures, failure types).
     Eval(EvalArgs),
+    /// Write the paper's tables and figures over several runs (Tables I and II, Figs. 3 and 4).
+    Report(ReportArgs),
     /// The main job: train the default experiment (block, Dense+FMSR+IS, rapier, quick budget),
     /// evaluate it and write the report.
     Run(RunArgs),
@@ -61,6 +63,16 @@ struct EvalArgs {
 }
 
 #[derive(Debug, clap::Args)]
+struct ReportArgs {
+    /// Run directories (each trained, and evaluated for the tables).
+    #[arg(required = true)]
+    runs: Vec<PathBuf>,
+    /// Where to write summary.md, the tables and the PNG figures.
+    #[arg(long, default_value = "report")]
+    out: PathBuf,
+}
+
+#[derive(Debug, clap::Args)]
 struct RunArgs {
     /// The experiment (TOML).
     #[arg(long, default_value = "configs/block_dense_fmsr_is_quick.toml")]
@@ -81,6 +93,7 @@ fn main() -> Result<()> {
     match cli.command {
         Command::Train(args) => train(&args).map(|_| ()),
         Command::Eval(args) => eval(&args),
+        Command::Report(args) => report(&args.runs, &args.out),
         Command::Run(args) => {
             let name = ExperimentConfig::load(&args.config)?.name;
             let out = args.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(name));
@@ -94,6 +107,7 @@ fn main() -> Result<()> {
             };
             let dir = train(&train_args)?;
             eval(&EvalArgs { run: dir.root().to_path_buf(), episodes: None })?;
+            report(&[dir.root().to_path_buf()], &dir.root().join("report"))?;
             println!("run, logs and evaluation in {}", dir.root().display());
             Ok(())
         }
@@ -188,5 +202,15 @@ fn eval(args: &EvalArgs) -> Result<()> {
     };
     println!("{}", summary.to_markdown());
     println!("evaluation written to {}", dir.eval_json().display());
+    Ok(())
+}
+
+fn report(runs: &[PathBuf], out: &std::path::Path) -> Result<()> {
+    let records = runs
+        .iter()
+        .map(|r| fmsr::report::RunRecord::load(r).with_context(|| format!("reading the run {}", r.display())))
+        .collect::<Result<Vec<_>>>()?;
+    let files = fmsr::report::write_report(&records, out)?;
+    println!("report written to {} ({} figures)", files.summary.display(), files.figures.len());
     Ok(())
 }

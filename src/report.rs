@@ -1,0 +1,269 @@
+//! `fmsr report`: the paper's tables and figures over several runs.
+//!
+//! - Table I (success rate and stability measures) and Table II (failure types),
+//!   in Markdown, one row per task and configuration. As in the paper, a
+//!   configuration trained with several seeds is represented by its run with
+//!   the highest test success rate.
+//! - Fig. 3: learning curves (evaluation success rate per epoch, mean and
+//!   min-max spread over seeds) per task, `fig3_<task>.png`.
+//! - Fig. 4: the stability measures over one test episode (the first of the fixed
+//!   test set, the same for every policy) per task, `fig4_<task>.png`.
+//! - `summary.md`: a one-page summary linking all of it.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::Once;
+
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+use fmsr_core::config::Method;
+use fmsr_core::trainer::{EpochStats, write_atomic};
+
+use crate::evaluate::EvalReport;
+use crate::experiment::{ExperimentConfig, ExperimentError};
+use crate::run::RunDir;
+
+/// One run as the report sees it.
+#[derive(Debug, Clone)]
+pub struct RunRecord {
+    /// Where it lives.
+    pub dir: PathBuf,
+    /// Its configuration.
+    pub config: ExperimentConfig,
+    /// Its per-epoch statistics.
+    pub metrics: Vec<EpochStats>,
+    /// Its evaluation, if `fmsr eval` ran.
+    pub eval: Option<EvalReport>,
+}
+
+impl RunRecord {
+    /// Reads a run directory.
+    pub fn load(dir: &Path) -> Result<Self, ExperimentError> {
+        let run = RunDir::new(dir);
+        let config = run.load_config()?;
+        let metrics = run.load_metrics()?;
+        let eval = if run.eval_json().exists() {
+            let path = run.eval_json();
+            let bytes = std::fs::read(&path).map_err(|source| ExperimentError::Io { path: path.clone(), source })?;
+            Some(
+                serde_json::from_slice(&bytes)
+                    .map_err(|e| ExperimentError::Parse { path: path.clone(), message: e.to_string() })?,
+            )
+        } else {
+            None
+        };
+        Ok(Self { dir: dir.to_path_buf(), config, metrics, eval })
+    }
+
+    fn task(&self) -> String {
+        format!("{:?}", self.config.env.object).to_lowercase()
+    }
+}
+
+/// What [`write_report`] wrote.
+#[derive(Debug, Clone, Default)]
+pub struct ReportFiles {
+    /// `summary.md`.
+    pub summary: PathBuf,
+    /// The PNG figures.
+    pub figures: Vec<PathBuf>,
+}
+
+fn method_color(m: Method) -> RGBColor {
+    match m {
+        Method::DenseFmsrIs => RGBColor(31, 119, 180),
+        Method::DenseFmsr => RGBColor(214, 39, 40),
+        Method::Dense => RGBColor(230, 171, 2),
+        Method::Sparse => RGBColor(44, 160, 44),
+    }
+}
+
+static FONT: Once = Once::new();
+
+fn register_font() {
+    FONT.call_once(|| {
+        // The bytes are embedded by the `dejavu` crate, so no system font is needed.
+        plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
+            .unwrap_or_else(|_| unreachable!("the embedded DejaVu Sans is a valid font"));
+    });
+}
+
+fn plot_err<E: std::fmt::Display>(path: &Path) -> impl Fn(E) -> ExperimentError + '_ {
+    move |e| ExperimentError::Config { key: "report".into(), reason: format!("plotting {}: {e}", path.display()) }
+}
+
+/// Learning curves of one task: success rate per epoch per method, mean over
+/// seeds with the min-max band.
+fn plot_learning_curves(task: &str, runs: &[&RunRecord], path: &Path) -> Result<(), ExperimentError> {
+    let err = plot_err(path);
+    let root = BitMapBackend::new(path, (900, 560)).into_drawing_area();
+    root.fill(&WHITE).map_err(&err)?;
+    let epochs = runs.iter().map(|r| r.metrics.len()).max().unwrap_or(1).max(2);
+    let mut chart = ChartBuilder::on(&root)
+        .caption(format!("Fig. 3 - {task}: success rate during training"), ("sans-serif", 24))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(55)
+        .build_cartesian_2d(0f64..(epochs - 1) as f64, 0f64..1.0)
+        .map_err(&err)?;
+    chart.configure_mesh().x_desc("epoch").y_desc("success rate").draw().map_err(&err)?;
+    for method in Method::ALL {
+        let seeds: Vec<&&RunRecord> = runs.iter().filter(|r| r.config.method == method).collect();
+        if seeds.is_empty() {
+            continue;
+        }
+        // Mean and spread over the runs that reached each epoch.
+        let n = seeds.iter().map(|r| r.metrics.len()).max().unwrap_or(0);
+        let at = |e: usize| seeds.iter().filter_map(|r| r.metrics.get(e).map(|m| m.success_rate)).collect::<Vec<_>>();
+        let mean: Vec<(f64, f64)> = (0..n)
+            .map(|e| {
+                let v = at(e);
+                (e as f64, v.iter().sum::<f64>() / v.len() as f64)
+            })
+            .collect();
+        let color = method_color(method);
+        if seeds.len() > 1 {
+            let upper = (0..n).map(|e| (e as f64, at(e).into_iter().fold(f64::MIN, f64::max)));
+            let lower = (0..n).rev().map(|e| (e as f64, at(e).into_iter().fold(f64::MAX, f64::min)));
+            chart
+                .draw_series(std::iter::once(Polygon::new(upper.chain(lower).collect::<Vec<_>>(), color.mix(0.2))))
+                .map_err(&err)?;
+        }
+        chart
+            .draw_series(LineSeries::new(mean, color.stroke_width(2)))
+            .map_err(&err)?
+            .label(format!("{} ({} run{})", method.label(), seeds.len(), if seeds.len() == 1 { "" } else { "s" }))
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+    }
+    chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(&err)?;
+    root.present().map_err(&err)?;
+    Ok(())
+}
+
+/// The six time-domain panels of Fig. 4 for one task.
+fn plot_time_domain(task: &str, best: &[(&RunRecord, &EvalReport)], path: &Path) -> Result<(), ExperimentError> {
+    let err = plot_err(path);
+    let root = BitMapBackend::new(path, (1200, 900)).into_drawing_area();
+    root.fill(&WHITE).map_err(&err)?;
+    let seed = best.first().map_or(0, |(_, e)| e.trace.seed);
+    let (title, body) = root.split_vertically(40);
+    title
+        .titled(&format!("Fig. 4 - {task}: stability over the test episode with seed {seed}"), ("sans-serif", 22))
+        .map_err(&err)?;
+    type Series = fn(&EvalReport) -> Vec<f64>;
+    let panels: [(&str, Series); 6] = [
+        ("Q_VEW", |e| e.trace.q_vew.clone()),
+        ("|Q'_VEW| (1/s)", |e| e.trace.dq_vew.clone()),
+        ("Q_MSV", |e| e.trace.q_msv.clone()),
+        ("|Q'_MSV| (1/s)", |e| e.trace.dq_msv.clone()),
+        ("active touch sensors", |e| e.trace.contacts.iter().map(|&c| c as f64).collect()),
+        ("Q_DCC (mm)", |e| e.trace.q_dcc.iter().map(|d| d.map_or(f64::NAN, |d| d * 1e3)).collect()),
+    ];
+    for (area, (name, series)) in body.split_evenly((3, 2)).iter().zip(panels) {
+        let data: Vec<(Method, Vec<f64>)> = best.iter().map(|(r, e)| (r.config.method, series(e))).collect();
+        let steps = data.iter().map(|(_, v)| v.len()).max().unwrap_or(1).max(2);
+        let ymax = data.iter().flat_map(|(_, v)| v.iter().copied()).filter(|v| v.is_finite()).fold(0.0, f64::max);
+        let ymax = if ymax > 0.0 { ymax * 1.05 } else { 1.0 };
+        let mut chart = ChartBuilder::on(area)
+            .caption(name, ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(30)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0f64..(steps - 1) as f64, 0f64..ymax)
+            .map_err(&err)?;
+        chart.configure_mesh().x_desc("step").draw().map_err(&err)?;
+        for (method, values) in data {
+            let color = method_color(method);
+            let points = values.iter().enumerate().filter(|(_, v)| v.is_finite()).map(|(i, &v)| (i as f64, v));
+            chart
+                .draw_series(LineSeries::new(points, color.stroke_width(2)))
+                .map_err(&err)?
+                .label(method.label())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+        }
+        chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(&err)?;
+    }
+    root.present().map_err(&err)?;
+    Ok(())
+}
+
+/// Writes the tables, figures and summary of `runs` into `out`.
+pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, ExperimentError> {
+    if runs.is_empty() {
+        return Err(ExperimentError::Config { key: "runs".into(), reason: "no run to report on".into() });
+    }
+    register_font();
+    std::fs::create_dir_all(out).map_err(|source| ExperimentError::Io { path: out.to_path_buf(), source })?;
+    let mut by_task: BTreeMap<String, Vec<&RunRecord>> = BTreeMap::new();
+    for r in runs {
+        by_task.entry(r.task()).or_default().push(r);
+    }
+    let mut files = ReportFiles { summary: out.join("summary.md"), figures: Vec::new() };
+    let mut table1 = EvalReport::table1_header();
+    let mut table2 = EvalReport::table2_header();
+    let mut runs_md = String::from(
+        "| Run | Task | Configuration | Seed | Epochs | Last success (train threshold) | Test success |\n|---|---|---|---|---|---|---|\n",
+    );
+    let mut missing_eval = Vec::new();
+    for (task, task_runs) in &by_task {
+        let mut best: Vec<(&RunRecord, &EvalReport)> = Vec::new();
+        for method in Method::ALL {
+            let chosen = task_runs
+                .iter()
+                .filter(|r| r.config.method == method)
+                .filter_map(|r| r.eval.as_ref().map(|e| (*r, e)))
+                .max_by(|a, b| a.1.success_rate.total_cmp(&b.1.success_rate));
+            if let Some((r, e)) = chosen {
+                table1.push_str(&e.table1_row());
+                table2.push_str(&e.table2_row());
+                best.push((r, e));
+            }
+        }
+        let fig3 = out.join(format!("fig3_{task}.png"));
+        plot_learning_curves(task, task_runs, &fig3)?;
+        files.figures.push(fig3);
+        if !best.is_empty() {
+            let fig4 = out.join(format!("fig4_{task}.png"));
+            plot_time_domain(task, &best, &fig4)?;
+            files.figures.push(fig4);
+        }
+        for r in task_runs {
+            let last = r.metrics.last().map_or_else(|| "n/a".into(), |m| format!("{:.2}", m.success_rate));
+            let test = r.eval.as_ref().map_or_else(|| "not evaluated".into(), |e| format!("{:.2}", e.success_rate));
+            if r.eval.is_none() {
+                missing_eval.push(r.dir.display().to_string());
+            }
+            let _ = writeln!(
+                runs_md,
+                "| {} | {task} | {} | {} | {} | {last} | {test} |",
+                r.dir.display(),
+                r.config.method.label(),
+                r.config.trainer.seed,
+                r.metrics.len()
+            );
+        }
+    }
+    let mut summary = String::from("# fmsr report\n\n");
+    let _ = writeln!(summary, "{} run(s) over {} task(s).\n", runs.len(), by_task.len());
+    summary.push_str("## Table I: task performance and manipulation stability\n\n");
+    summary.push_str("Success at the test threshold on the fixed test set; the other columns are mean ± std across the test episodes of the per-episode values (total active touch sensors over the episode; mean Q_MSV and Q_VEW of the grasp matrix; mean |dQ/dt|; mean distance of the contacts to the centre of mass). A configuration with several seeds is shown by its best run, as in the paper.\n\n");
+    summary.push_str(&table1);
+    summary.push_str("\n## Table II: failure types\n\n");
+    summary.push_str(&table2);
+    summary.push_str("\n## Figures\n\n");
+    for f in &files.figures {
+        let name = f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let _ = writeln!(summary, "![{name}]({name})\n");
+    }
+    summary.push_str("## Runs\n\n");
+    summary.push_str(&runs_md);
+    if !missing_eval.is_empty() {
+        let _ = writeln!(summary, "\nNot in the tables (run `fmsr eval` on them): {}", missing_eval.join(", "));
+    }
+    write_atomic(&files.summary, summary.as_bytes())?;
+    write_atomic(&out.join("table1.md"), table1.as_bytes())?;
+    write_atomic(&out.join("table2.md"), table2.as_bytes())?;
+    Ok(files)
+}

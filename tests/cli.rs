@@ -1,0 +1,124 @@
+//! Guards the `fmsr` command end to end (issue 6): train -> eval -> report on a
+//! tiny budget on the rapier Shadow Hand writes every file of a run and a report;
+//! `--resume` continues a run; bad configs are rejected before training with a
+//! message that names the key.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const FMSR: &str = env!("CARGO_BIN_EXE_fmsr");
+
+/// The quick block config cut down to seconds, with small networks.
+fn tiny_config(dir: &Path, extra: &str) -> PathBuf {
+    let base = std::fs::read_to_string("configs/block_dense_fmsr_is_quick.toml").unwrap();
+    let text = base
+        .replace("name = \"block_dense_fmsr_is_quick\"", "name = \"tiny\"")
+        .replace("epochs = 5", "epochs = 1")
+        .replace("cycles = 10", "cycles = 1")
+        .replace("batches = 20", "batches = 2")
+        .replace("batch_size = 256", "batch_size = 32")
+        .replace("eval_episodes = 5", "eval_episodes = 1")
+        .replace("episodes = 100", "episodes = 2")
+        .replace("hidden = 256", "hidden = 32")
+        .replace("layers = 3", "layers = 2");
+    assert_ne!(text, base, "the quick config changed: update this test");
+    let path = dir.join("tiny.toml");
+    std::fs::write(&path, format!("{text}\n{extra}")).unwrap();
+    path
+}
+
+fn fmsr(args: &[&str]) -> std::process::Output {
+    Command::new(FMSR).args(args).env("RUST_BACKTRACE", "0").output().unwrap()
+}
+
+fn text(out: &std::process::Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
+}
+
+#[test]
+fn train_eval_report_and_resume() {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = tiny_config(tmp.path(), "");
+    let run = tmp.path().join("run");
+    let (config_s, run_s) = (config.to_str().unwrap(), run.to_str().unwrap());
+
+    let out = fmsr(&["train", "--config", config_s, "--out", run_s, "--seed", "3"]);
+    assert!(out.status.success(), "{}", text(&out));
+    for f in ["config.toml", "checkpoint.bin", "metrics.jsonl", "metrics.csv"] {
+        assert!(run.join(f).exists(), "{f} missing");
+    }
+    assert_eq!(std::fs::read_to_string(run.join("metrics.jsonl")).unwrap().lines().count(), 1);
+
+    // A second train into the same directory must not overwrite the run.
+    let out = fmsr(&["train", "--config", config_s, "--out", run_s]);
+    assert!(!out.status.success());
+    assert!(text(&out).contains("--resume"), "{}", text(&out));
+
+    // Resume for one more epoch.
+    let out = fmsr(&["train", "--out", run_s, "--resume", "--epochs", "2"]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert_eq!(std::fs::read_to_string(run.join("metrics.jsonl")).unwrap().lines().count(), 2);
+    assert!(std::fs::read_to_string(run.join("config.toml")).unwrap().contains("seed = 3"));
+
+    let out = fmsr(&["eval", run_s]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(text(&out).contains("| block | Dense+FMSR+IS |"), "{}", text(&out));
+    let eval: serde_json::Value = serde_json::from_slice(&std::fs::read(run.join("eval.json")).unwrap()).unwrap();
+    assert_eq!(eval["episodes"], 2);
+    assert_eq!(eval["trace"]["q_msv"].as_array().unwrap().len(), 100);
+
+    let report = tmp.path().join("report");
+    let out = fmsr(&["report", run_s, "--out", report.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out));
+    let summary = std::fs::read_to_string(report.join("summary.md")).unwrap();
+    assert!(summary.contains("Table I") && summary.contains("Dense+FMSR+IS"), "{summary}");
+    for f in ["fig3_block.png", "fig4_block.png"] {
+        let png = std::fs::read(report.join(f)).unwrap();
+        assert_eq!(&png[..4], b"\x89PNG", "{f} is not a PNG");
+    }
+}
+
+#[test]
+fn bad_configs_are_rejected_naming_the_key() {
+    let tmp = tempfile::tempdir().unwrap();
+    type Edit = fn(String) -> String;
+    let cases: [(Edit, &str); 7] = [
+        (|t| t + "[run]\ncheckpoint_replays = true\n", "checkpoint_replays"),
+        (|t| t.replace("batch_size = 32", "batch_size = \"many\""), "batch_size"),
+        (|t| t.replace("hidden = 32", "hiden = 32"), "ddpg.hiden"),
+        (
+            |t| {
+                t.replace(
+                    "mixing = { rule = \"metropolis_hastings\" }",
+                    "mixing = { rule = \"matrix\", rows = [[0.5, 0.5], [0.5, 0.5]] }",
+                )
+            },
+            "sharing.mixing",
+        ),
+        (
+            |t| {
+                t.replace(
+                    "mixing = { rule = \"metropolis_hastings\" }",
+                    "mixing = { rule = \"matrix\", rows = [[0.9, 0, 0, 0, 0, 0], [0, 1, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0], \
+                     [0, 0, 0, 1, 0, 0], [0, 0, 0, 0, 1, 0], [0, 0, 0, 0, 0, 1]] }",
+                )
+            },
+            "row 0",
+        ),
+        (|t| t + "[graph]\nedges = [[\"thumb\", \"pinky\"]]\n", "pinky"),
+        (|t| t.replace("threshold = 0.4", "threshold = -1.0"), "eval.threshold"),
+    ];
+    for (i, (edit, key)) in cases.iter().enumerate() {
+        let dir = tmp.path().join(format!("case{i}"));
+        std::fs::create_dir_all(&dir).unwrap();
+        let config = tiny_config(&dir, "");
+        let original = std::fs::read_to_string(&config).unwrap();
+        let edited = edit(original.clone());
+        assert_ne!(edited, original, "case {i} changed nothing");
+        std::fs::write(&config, edited).unwrap();
+        let out = fmsr(&["train", "--config", config.to_str().unwrap(), "--out", dir.join("run").to_str().unwrap()]);
+        assert!(!out.status.success(), "case {i} was accepted");
+        assert!(text(&out).contains(key), "case {i}: the error does not name `{key}`:\n{}", text(&out));
+        assert!(!dir.join("run").join("checkpoint.bin").exists(), "case {i} started training");
+    }
+}
