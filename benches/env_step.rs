@@ -79,5 +79,10 @@ fn batched(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, single, batched);
+criterion_group! {
+    name = benches;
+    // No plots: plotters finds no font on headless machines and panics.
+    config = Criterion::default().without_plots();
+    targets = single, batched
+}
 criterion_main!(benches);
