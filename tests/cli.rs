@@ -82,7 +82,7 @@ fn train_eval_report_and_resume() {
 fn bad_configs_are_rejected_naming_the_key() {
     let tmp = tempfile::tempdir().unwrap();
     type Edit = fn(String) -> String;
-    let cases: [(Edit, &str); 7] = [
+    let cases: [(Edit, &str); 8] = [
         (|t| t + "[run]\ncheckpoint_replays = true\n", "checkpoint_replays"),
         (|t| t.replace("batch_size = 32", "batch_size = \"many\""), "batch_size"),
         (|t| t.replace("hidden = 32", "hiden = 32"), "ddpg.hiden"),
@@ -107,6 +107,7 @@ fn bad_configs_are_rejected_naming_the_key() {
         ),
         (|t| t + "[graph]\nedges = [[\"thumb\", \"pinky\"]]\n", "pinky"),
         (|t| t.replace("threshold = 0.4", "threshold = -1.0"), "eval.threshold"),
+        (|t| t + "[[env.agents]]\nname = \"hand\"\nactuators = [\"WRJ1\", \"WRJ0\"]\n", "env.agents"),
     ];
     for (i, (edit, key)) in cases.iter().enumerate() {
         let dir = tmp.path().join(format!("case{i}"));

@@ -105,6 +105,42 @@ pub struct ShadowHandConfig {
     pub assets_dir: Option<PathBuf>,
     /// Solver settings of the rapier backend.
     pub rapier: RapierSettings,
+    /// The agents and the actuators each one owns; `None` is the paper's six
+    /// agents (DESIGN.md 3.1). Every actuator must be owned exactly once. An
+    /// agent observes the joints and touch sensors of every finger (or the
+    /// wrist/palm) it owns an actuator of.
+    pub agents: Option<Vec<HandAgent>>,
+}
+
+/// One agent of a custom partition of the hand's actuators.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HandAgent {
+    /// The agent's name (used by reward assignments and graphs).
+    pub name: String,
+    /// The actuators it owns, by joint name without prefix (`"WRJ1"`, `"THJ0"`, ...).
+    pub actuators: Vec<String>,
+}
+
+impl HandAgent {
+    /// The paper's partition: wrist, index, middle, ring, little, thumb.
+    ///
+    /// ```
+    /// use fmsr_envs::shadow_hand::HandAgent;
+    /// let agents = HandAgent::paper();
+    /// assert_eq!(agents[0].actuators, vec!["WRJ1", "WRJ0"]);
+    /// assert_eq!(agents.iter().map(|a| a.actuators.len()).sum::<usize>(), 20);
+    /// ```
+    #[must_use]
+    pub fn paper() -> Vec<HandAgent> {
+        AGENTS
+            .iter()
+            .map(|part| HandAgent {
+                name: part.name.into(),
+                actuators: ACTUATORS.iter().filter(|a| a.starts_with(part.joint_prefix)).map(|a| (*a).into()).collect(),
+            })
+            .collect()
+    }
 }
 
 impl Default for ShadowHandConfig {
@@ -125,6 +161,7 @@ impl Default for ShadowHandConfig {
             drop_distance: 0.15,
             assets_dir: None,
             rapier: RapierSettings::default(),
+            agents: None,
         }
     }
 }
@@ -204,6 +241,41 @@ impl ShadowHandConfig {
     }
 }
 
+/// The joint-action slots of each agent of `partition`, checking that every
+/// actuator is owned exactly once and that names are known and unique.
+fn partition_slots(partition: &[HandAgent]) -> Result<Vec<Vec<usize>>, EnvError> {
+    let bad = |reason: String| EnvError::InvalidConfig { key: "env.agents", reason };
+    if partition.is_empty() {
+        return Err(bad("at least one agent is needed".into()));
+    }
+    let mut owner: Vec<Option<&str>> = vec![None; ACTUATORS.len()];
+    let mut all = Vec::with_capacity(partition.len());
+    for (i, agent) in partition.iter().enumerate() {
+        if partition[..i].iter().any(|a| a.name == agent.name) {
+            return Err(bad(format!("agent name `{}` is used twice", agent.name)));
+        }
+        if agent.actuators.is_empty() {
+            return Err(bad(format!("agent `{}` owns no actuator", agent.name)));
+        }
+        let mut slots = Vec::with_capacity(agent.actuators.len());
+        for name in &agent.actuators {
+            let slot = ACTUATORS.iter().position(|a| a == name).ok_or_else(|| {
+                bad(format!("agent `{}`: unknown actuator `{name}` (known: {})", agent.name, ACTUATORS.join(", ")))
+            })?;
+            if let Some(other) = owner[slot] {
+                return Err(bad(format!("actuator `{name}` is owned by both `{other}` and `{}`", agent.name)));
+            }
+            owner[slot] = Some(&agent.name);
+            slots.push(slot);
+        }
+        all.push(slots);
+    }
+    if let Some(slot) = owner.iter().position(Option::is_none) {
+        return Err(bad(format!("actuator `{}` is owned by no agent", ACTUATORS[slot])));
+    }
+    Ok(all)
+}
+
 /// Which joints, actuators and touch sensors an agent owns.
 #[derive(Debug, Clone)]
 struct AgentIndex {
@@ -259,32 +331,39 @@ impl<P: HandPhysics> ShadowHand<P> {
             )));
         }
         let touch_prefix = format!("{PREFIX}TS_");
+        let partition = config.agents.clone().unwrap_or_else(HandAgent::paper);
+        let slots_of = partition_slots(&partition)?;
         let mut agents = Vec::new();
         let mut specs = Vec::new();
-        let mut touch_owned = 0;
-        for part in AGENTS {
-            let slots: Vec<usize> =
-                (0..ACTUATORS.len()).filter(|&i| ACTUATORS[i].starts_with(part.joint_prefix)).collect();
-            let joints: Vec<usize> =
-                (0..HAND_JOINTS.len()).filter(|&i| HAND_JOINTS[i].starts_with(part.joint_prefix)).collect();
+        let mut touch_seen = vec![false; NUM_TOUCH];
+        for (agent, slots) in partition.iter().zip(slots_of) {
+            // The fingers (or the wrist) this agent moves, and what it observes of them.
+            let parts: Vec<_> =
+                AGENTS.iter().filter(|p| slots.iter().any(|&s| ACTUATORS[s].starts_with(p.joint_prefix))).collect();
+            let joints: Vec<usize> = (0..HAND_JOINTS.len())
+                .filter(|&i| parts.iter().any(|p| HAND_JOINTS[i].starts_with(p.joint_prefix)))
+                .collect();
             let touch: Vec<usize> = physics
                 .touch_names()
                 .iter()
                 .enumerate()
                 .filter(|(_, n)| {
                     let stem = n.strip_prefix(&touch_prefix).unwrap_or(n);
-                    part.touch_prefixes.iter().any(|p| stem.starts_with(p))
+                    parts.iter().any(|p| p.touch_prefixes.iter().any(|t| stem.starts_with(t)))
                 })
                 .map(|(i, _)| i)
                 .collect();
-            touch_owned += touch.len();
+            for &t in &touch {
+                touch_seen[t] = true;
+            }
             specs.push(AgentSpec {
-                name: part.name.into(),
+                name: agent.name.clone(),
                 action_slots: slots,
                 local_obs_dim: 2 * joints.len() + touch.len() + 13,
             });
             agents.push(AgentIndex { joints, touch });
         }
+        let touch_owned = touch_seen.iter().filter(|&&t| t).count();
         if touch_owned != NUM_TOUCH {
             return Err(EnvError::Model(format!("{touch_owned} of {NUM_TOUCH} touch sensors belong to an agent")));
         }
