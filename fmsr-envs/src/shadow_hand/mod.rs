@@ -335,7 +335,7 @@ impl<P: HandPhysics> ShadowHand<P> {
         let slots_of = partition_slots(&partition)?;
         let mut agents = Vec::new();
         let mut specs = Vec::new();
-        let mut touch_seen = vec![false; NUM_TOUCH];
+        let mut touch_seen = [false; NUM_TOUCH];
         for (agent, slots) in partition.iter().zip(slots_of) {
             // The fingers (or the wrist) this agent moves, and what it observes of them.
             let parts: Vec<_> =
