@@ -163,5 +163,10 @@ fn pytorch_reference(_c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, joint_update, pytorch_reference);
+criterion_group! {
+    name = benches;
+    // No plots: criterion's plotters backend needs system fonts that CI images may lack.
+    config = Criterion::default().without_plots();
+    targets = joint_update, pytorch_reference
+}
 criterion_main!(benches);
