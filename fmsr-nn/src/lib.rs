@@ -135,6 +135,8 @@ mod net;
 mod normalizer;
 mod state;
 
+/// burn's device type, re-exported for [`DdpgLearner::with_parts`] (e.g. `Device::flex()`).
+pub use burn::tensor::Device;
 pub use config::DdpgConfig;
 pub use error::NnError;
 pub use learner::DdpgLearner;
@@ -143,6 +145,6 @@ pub use normalizer::Normalizer;
 
 /// Everything needed for typical use: `use fmsr_nn::prelude::*;`.
 pub mod prelude {
-    pub use crate::{Actor, Critic, DdpgConfig, DdpgLearner, FlatAdam, NetShape, NnError, Normalizer};
+    pub use crate::{Actor, Critic, DdpgConfig, DdpgLearner, Device, FlatAdam, NetShape, NnError, Normalizer};
     pub use fmsr_core::agent::{Agent, SaveState};
 }
