@@ -6,7 +6,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use fmsr::experiment::{Engine, ExperimentConfig, ExperimentError};
+use fmsr::experiment::{Engine, ExperimentConfig};
 use fmsr::run::{self, RunDir};
 use fmsr_core::prelude::*;
 
@@ -179,7 +179,13 @@ fn train(args: &TrainArgs) -> Result<RunDir> {
             let env = config.env_config().init().context("building the rapier Shadow Hand")?;
             run::train(&config, env, &dir, resume, on_epoch)?;
         }
-        Engine::Mujoco => return Err(ExperimentError::EngineUnavailable.into()),
+        #[cfg(feature = "mujoco")]
+        Engine::Mujoco => {
+            let env = config.env_config().init_mujoco(Default::default()).context("building the MuJoCo Shadow Hand")?;
+            run::train(&config, env, &dir, resume, on_epoch)?;
+        }
+        #[cfg(not(feature = "mujoco"))]
+        Engine::Mujoco => return Err(fmsr::experiment::ExperimentError::EngineUnavailable.into()),
     }
     bar.finish();
     Ok(dir)
@@ -198,7 +204,14 @@ fn eval(args: &EvalArgs) -> Result<()> {
             let dt = fmsr::experiment::MODEL_TIMESTEP * config.env.substeps as f64;
             fmsr::evaluate::evaluate_run(&config, env, &dir, dt)?
         }
-        Engine::Mujoco => return Err(ExperimentError::EngineUnavailable.into()),
+        #[cfg(feature = "mujoco")]
+        Engine::Mujoco => {
+            let env = config.env_config().init_mujoco(Default::default()).context("building the MuJoCo Shadow Hand")?;
+            let dt = fmsr::experiment::MODEL_TIMESTEP * config.env.substeps as f64;
+            fmsr::evaluate::evaluate_run(&config, env, &dir, dt)?
+        }
+        #[cfg(not(feature = "mujoco"))]
+        Engine::Mujoco => return Err(fmsr::experiment::ExperimentError::EngineUnavailable.into()),
     };
     println!("{}", summary.to_markdown());
     println!("evaluation written to {}", dir.eval_json().display());
