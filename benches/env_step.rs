@@ -44,7 +44,7 @@ fn single(c: &mut Criterion) {
         group.bench_function(name, |b| {
             b.iter(|| {
                 steps += 1;
-                if steps % 100 == 0 {
+                if steps.is_multiple_of(100) {
                     e.reset(steps).expect("reset");
                 }
                 black_box(e.step(&random_action(&mut rng)).expect("step"))
@@ -66,7 +66,7 @@ fn batched(c: &mut Criterion) {
         group.bench_function(format!("n{n}_threads{threads}"), |b| {
             b.iter(|| {
                 steps += 1;
-                if steps % 100 == 0 {
+                if steps.is_multiple_of(100) {
                     for (i, e) in envs.iter_mut().enumerate() {
                         e.reset(steps + i as u64).expect("reset");
                     }
