@@ -40,7 +40,7 @@ fn single(c: &mut Criterion) {
     for (name, settings) in cases {
         let mut e = env(settings, 0);
         let mut rng = StdRng::seed_from_u64(1);
-        let mut steps = 0;
+        let mut steps = 0u64;
         group.bench_function(name, |b| {
             b.iter(|| {
                 steps += 1;
