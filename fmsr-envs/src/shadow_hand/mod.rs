@@ -166,21 +166,41 @@ impl Default for ShadowHandConfig {
     }
 }
 
-/// Loaded models, by assets folder and object.
-type ModelCache = Vec<((PathBuf, HandObject), Arc<RapierHandModel>)>;
+/// Models loaded once per process and then shared, by assets folder and object.
+pub(crate) struct ModelCache<M>(Mutex<Vec<(CacheKey, Arc<M>)>>);
 
-static MODELS: Mutex<ModelCache> = Mutex::new(Vec::new());
+/// Where a model was loaded from.
+type CacheKey = (PathBuf, HandObject);
+
+impl<M> ModelCache<M> {
+    /// An empty cache.
+    pub(crate) const fn new() -> Self {
+        Self(Mutex::new(Vec::new()))
+    }
+
+    /// The cached model of `object` from `assets`, or the one `load` makes.
+    pub(crate) fn get_or_load(
+        &self,
+        assets: &HandAssets,
+        object: HandObject,
+        load: impl FnOnce() -> Result<M, EnvError>,
+    ) -> Result<Arc<M>, EnvError> {
+        let key = (assets.root.clone(), object);
+        let mut models = self.0.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some((_, m)) = models.iter().find(|(k, _)| *k == key) {
+            return Ok(Arc::clone(m));
+        }
+        let model = Arc::new(load()?);
+        models.push((key, Arc::clone(&model)));
+        Ok(model)
+    }
+}
+
+static MODELS: ModelCache<RapierHandModel> = ModelCache::new();
 
 /// Loads (once per process, then shared) the rapier model of `object` from `assets`.
 pub fn load_rapier_model(assets: &HandAssets, object: HandObject) -> Result<Arc<RapierHandModel>, EnvError> {
-    let key = (assets.root.clone(), object);
-    let mut models = MODELS.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    if let Some((_, m)) = models.iter().find(|(k, _)| *k == key) {
-        return Ok(Arc::clone(m));
-    }
-    let model = Arc::new(RapierHandModel::load(assets, object)?);
-    models.push((key, Arc::clone(&model)));
-    Ok(model)
+    MODELS.get_or_load(assets, object, || RapierHandModel::load(assets, object))
 }
 
 impl ShadowHandConfig {

@@ -19,8 +19,7 @@
 //!
 //! Build and run set-up: `scripts/setup_mujoco.sh` (see the crate README/`.ci/run`).
 
-use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use mujoco_rs::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -30,7 +29,7 @@ use fmsr_core::env::{ContactPoint, ObjectContacts};
 use super::assets::{HandAssets, fetch_hand_assets};
 use super::model::{ACTUATORS, HAND_JOINTS, HandObject, NUM_TOUCH, PREFIX};
 use super::physics::HandPhysics;
-use super::{ShadowHand, ShadowHandConfig};
+use super::{ModelCache, ShadowHand, ShadowHandConfig};
 use crate::error::EnvError;
 
 /// Settings of the MuJoCo backend.
@@ -162,21 +161,11 @@ impl MujocoHandModel {
     }
 }
 
-/// Loaded models, by assets folder and object.
-type ModelCache = Vec<((PathBuf, HandObject), Arc<MujocoHandModel>)>;
-
-static MODELS: Mutex<ModelCache> = Mutex::new(Vec::new());
+static MODELS: ModelCache<MujocoHandModel> = ModelCache::new();
 
 /// Loads (once per process, then shared) the MuJoCo model of `object` from `assets`.
 pub fn load_mujoco_model(assets: &HandAssets, object: HandObject) -> Result<Arc<MujocoHandModel>, EnvError> {
-    let key = (assets.root.clone(), object);
-    let mut models = MODELS.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-    if let Some((_, m)) = models.iter().find(|(k, _)| *k == key) {
-        return Ok(Arc::clone(m));
-    }
-    let model = Arc::new(MujocoHandModel::load(assets, object)?);
-    models.push((key, Arc::clone(&model)));
-    Ok(model)
+    MODELS.get_or_load(assets, object, || MujocoHandModel::load(assets, object))
 }
 
 /// The MuJoCo Shadow Hand scene; see the [module docs](self).
