@@ -115,10 +115,20 @@ fn main() -> Result<()> {
 }
 
 fn resolve_config(args: &TrainArgs) -> Result<(ExperimentConfig, RunDir, bool)> {
-    let config = ExperimentConfig::load(&args.config).with_context(|| "reading the experiment")?;
-    let dir = RunDir::new(args.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(&config.name)));
+    let default_dir = |config: &ExperimentConfig| PathBuf::from("runs").join(&config.name);
     let resume = args.resume;
-    let mut config = if resume { dir.load_config().context("reading the run's config.toml")? } else { config };
+    let (mut config, dir) = if resume {
+        // A resumed run keeps its own configuration; --config only names it when --out is absent.
+        let dir = match &args.out {
+            Some(out) => RunDir::new(out),
+            None => RunDir::new(default_dir(&ExperimentConfig::load(&args.config).context("reading the experiment")?)),
+        };
+        (dir.load_config().context("reading the run's config.toml")?, dir)
+    } else {
+        let config = ExperimentConfig::load(&args.config).context("reading the experiment")?;
+        let dir = RunDir::new(args.out.clone().unwrap_or_else(|| default_dir(&config)));
+        (config, dir)
+    };
     if let Some(e) = args.engine {
         config.engine = match e {
             EngineArg::Rapier => Engine::Rapier,
