@@ -6,7 +6,7 @@
 //!   environment (no physics engine) used by tests and examples.
 //! - [`shadow_hand::ShadowHand`]: the Shadow Hand block and egg rotation tasks with
 //!   92 touch sensors, on rapier3d (default; the model is fetched with pip on first use)
-//!   or, with the cargo feature `mujoco`, on MuJoCo 3.17 ([`shadow_hand::ShadowHandConfig::init_mujoco`]).
+//!   or, with the cargo feature `mujoco`, on MuJoCo 3.17 (`ShadowHandConfig::init_mujoco`).
 //!   The task code is shared; only the physics ([`shadow_hand::HandPhysics`]) differs.
 //!   The agents are a partition of the 20 actuators ([`shadow_hand::HandAgent`]).
 //!
