@@ -416,6 +416,35 @@ impl DdpgLearner {
         mixer.mix_slices(&mut slices).map_err(|source| NnError::Mixing { what, source })
     }
 
+    /// One optimiser step of every agent's critic (`critic`) or actor from its
+    /// gradient: averaged over workers by the communicator, mixed over the graph
+    /// in gradient mode, Adam, then mixed in parameter mode (eq. 8).
+    fn apply_gradients(&mut self, critic: bool, mut grads: Vec<Vec<f32>>) -> Result<(), NnError> {
+        for g in &mut grads {
+            self.comm.all_reduce_mean(g);
+        }
+        let (grad_what, param_what) = if critic {
+            ("critic trunk gradients", "critic trunk parameters")
+        } else {
+            ("actor trunk gradients", "actor trunk parameters")
+        };
+        if self.shares(ShareMode::Gradients, critic) {
+            self.mix(grad_what, critic, Some(&mut grads))?;
+        }
+        let c = &self.config;
+        let (lr, b1, b2, eps) =
+            (if critic { c.lr_critic } else { c.lr_actor }, c.adam_beta1, c.adam_beta2, c.adam_epsilon);
+        for (a, g) in self.agents.iter_mut().zip(&grads) {
+            let (adam, params) =
+                if critic { (&mut a.critic_adam, &mut a.critic) } else { (&mut a.actor_adam, &mut a.actor) };
+            adam.step(params, g, lr, b1, b2, eps);
+        }
+        if self.shares(ShareMode::Parameters, critic) {
+            self.mix(param_what, critic, None)?;
+        }
+        Ok(())
+    }
+
     fn shares(&self, mode: ShareMode, critic: bool) -> bool {
         self.sharing.as_ref().is_some_and(|s| {
             s.mode == mode
@@ -496,19 +525,8 @@ impl DdpgLearner {
                 Ok((value, g))
             })?
         };
-        let (critic_loss, mut critic_grads): (Vec<f32>, Vec<Vec<f32>>) = critic_results.into_iter().unzip();
-        for g in &mut critic_grads {
-            self.comm.all_reduce_mean(g);
-        }
-        if self.shares(ShareMode::Gradients, true) {
-            self.mix("critic trunk gradients", true, Some(&mut critic_grads))?;
-        }
-        for (a, g) in self.agents.iter_mut().zip(&critic_grads) {
-            a.critic_adam.step(&mut a.critic, g, cfg.lr_critic, cfg.adam_beta1, cfg.adam_beta2, cfg.adam_epsilon);
-        }
-        if self.shares(ShareMode::Parameters, true) {
-            self.mix("critic trunk parameters", true, None)?;
-        }
+        let (critic_loss, critic_grads): (Vec<f32>, Vec<Vec<f32>>) = critic_results.into_iter().unzip();
+        self.apply_gradients(true, critic_grads)?;
 
         // Actor phase: L = -mean(Q_i(x, g, a with agent i's block = mu_i)) + action_l2 * mean(mu_i^2).
         let ogd = self.critic_norm.dim();
@@ -549,19 +567,8 @@ impl DdpgLearner {
                 Ok((value, g))
             })?
         };
-        let (actor_loss, mut actor_grads): (Vec<f32>, Vec<Vec<f32>>) = actor_results.into_iter().unzip();
-        for g in &mut actor_grads {
-            self.comm.all_reduce_mean(g);
-        }
-        if self.shares(ShareMode::Gradients, false) {
-            self.mix("actor trunk gradients", false, Some(&mut actor_grads))?;
-        }
-        for (a, g) in self.agents.iter_mut().zip(&actor_grads) {
-            a.actor_adam.step(&mut a.actor, g, cfg.lr_actor, cfg.adam_beta1, cfg.adam_beta2, cfg.adam_epsilon);
-        }
-        if self.shares(ShareMode::Parameters, false) {
-            self.mix("actor trunk parameters", false, None)?;
-        }
+        let (actor_loss, actor_grads): (Vec<f32>, Vec<Vec<f32>>) = actor_results.into_iter().unzip();
+        self.apply_gradients(false, actor_grads)?;
         self.act_cache = None;
         Ok(LearnStats { critic_loss, actor_loss })
     }
