@@ -237,11 +237,11 @@ impl ReplayBuffer {
         for _ in 0..n {
             let ep = rng.random_range(0..self.len);
             let t = rng.random_range(0..t_max);
-            let goal: Vec<f32> = if rng.random::<f64>() < future_p {
+            let goal: &[f32] = if rng.random::<f64>() < future_p {
                 let future = t + 1 + rng.random_range(0..t_max - t);
-                self.achieved_at(ep, future).to_vec()
+                self.achieved_at(ep, future)
             } else {
-                self.desired[ep * gd..(ep + 1) * gd].to_vec()
+                &self.desired[ep * gd..(ep + 1) * gd]
             };
             let row = |t: usize| (ep * (t_max + 1) + t) * od;
             b.obs.extend_from_slice(&self.global[row(t)..row(t) + od]);
@@ -254,10 +254,10 @@ impl ReplayBuffer {
                 let lrow = |t: usize| (ep * (t_max + 1) + t) * d;
                 let local = &self.locals[a][lrow(t)..lrow(t) + d];
                 let next_local = &self.locals[a][lrow(t + 1)..lrow(t + 1) + d];
-                layout.push_actor_input(a, local, &goal, prev, &mut b.actor_inputs[a]);
-                layout.push_actor_input(a, next_local, &goal, action, &mut b.next_actor_inputs[a]);
+                layout.push_actor_input(a, local, goal, prev, &mut b.actor_inputs[a]);
+                layout.push_actor_input(a, next_local, goal, action, &mut b.next_actor_inputs[a]);
             }
-            let task = goal_reward(self.achieved_at(ep, t + 1), &goal);
+            let task = goal_reward(self.achieved_at(ep, t + 1), goal);
             let phi = &self.features[(ep * t_max + t) * k..(ep * t_max + t + 1) * k];
             agent_rewards(task, phi, &mut out);
             for (r, o) in b.rewards.iter_mut().zip(&out) {
@@ -265,7 +265,7 @@ impl ReplayBuffer {
             }
             b.task_rewards.push(task);
             b.features.extend_from_slice(phi);
-            b.goals.extend_from_slice(&goal);
+            b.goals.extend_from_slice(goal);
         }
         Ok(b)
     }
