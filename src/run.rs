@@ -87,11 +87,11 @@ impl RunDir {
     }
 
     /// Writes the per-epoch statistics (JSON lines and CSV), atomically.
-    pub fn write_metrics(&self, history: &[EpochStats]) -> Result<(), ExperimentError> {
+    pub fn write_metrics(&self, history: &[EpochStats]) -> Result<(), CoreError> {
         let mut jsonl = String::new();
         for s in history {
             let line = serde_json::to_string(s)
-                .map_err(|e| ExperimentError::Config { key: "metrics".into(), reason: e.to_string() })?;
+                .map_err(|e| CoreError::Corrupt { path: self.metrics_jsonl(), reason: e.to_string() })?;
             jsonl.push_str(&line);
             jsonl.push('\n');
         }
@@ -163,19 +163,11 @@ pub fn train<E: Env>(
     write_atomic(&dir.config(), config.to_toml()?.as_bytes())?;
     dir.write_metrics(trainer.history())?;
     let replay = config.run.checkpoint_replay;
-    let mut failure: Option<ExperimentError> = None;
-    let result = trainer.train(|t, stats| {
+    trainer.train(|t, stats| {
         t.save_checkpoint(&dir.checkpoint(), replay)?;
-        if let Err(e) = dir.write_metrics(t.history()) {
-            failure = Some(e);
-            return Err(CoreError::InvalidConfig { key: "metrics".into(), reason: "could not be written".into() });
-        }
+        dir.write_metrics(t.history())?;
         on_epoch(stats);
         Ok(())
-    });
-    match (result, failure) {
-        (_, Some(e)) => Err(e),
-        (Err(e), None) => Err(e.into()),
-        (Ok(()), None) => Ok(trainer),
-    }
+    })?;
+    Ok(trainer)
 }
