@@ -54,8 +54,15 @@ fn train_eval_report_and_resume() {
     assert!(!out.status.success());
     assert!(text(&out).contains("--resume"), "{}", text(&out));
 
-    // Resume for one more epoch.
-    let out = fmsr(&["train", "--out", run_s, "--resume", "--epochs", "2"]);
+    // Resume for one more epoch, from a directory without `configs/`: a resumed
+    // run reads only its own config.toml (regression: it used to load the
+    // default --config first and fail there).
+    let out = Command::new(FMSR)
+        .args(["train", "--out", run_s, "--resume", "--epochs", "2"])
+        .current_dir(tmp.path())
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .unwrap();
     assert!(out.status.success(), "{}", text(&out));
     assert_eq!(std::fs::read_to_string(run.join("metrics.jsonl")).unwrap().lines().count(), 2);
     assert!(std::fs::read_to_string(run.join("config.toml")).unwrap().contains("seed = 3"));
