@@ -13,10 +13,11 @@ use std::process::Command;
 use std::time::Instant;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use fmsr_core::Agent;
 use fmsr_core::agent::{Batch, ObservationLayout};
+use fmsr_core::policy::{ActMode, Policy};
+use fmsr_core::replay::ReplayConfig;
 use fmsr_core::spec::{AgentSpec, EnvSpec};
-use fmsr_nn::{DdpgConfig, DdpgLearner};
+use fmsr_nn::{LearnerParts, Maddpg, MaddpgConfig, NetworkConfig};
 
 const BATCH: usize = 256;
 const ACTION_DIMS: [usize; 6] = [2, 3, 3, 3, 4, 5];
@@ -81,14 +82,17 @@ fn batch(layout: &ObservationLayout) -> Batch {
         task_rewards: values(n, 5),
         features: values(n * 2, 6),
         rewards: (0..na).map(|i| values(n, 30 + i).into_iter().map(|r| r - 1.0).collect()).collect(),
-        q_bounds: vec![(-100.0, 0.0); na],
     }
 }
 
-fn learner(threads: usize) -> DdpgLearner {
-    let config = DdpgConfig::new().with_threads(threads);
-    DdpgLearner::new(layout(), config, None).expect("a valid learner")
+fn learner(threads: usize) -> Maddpg {
+    let net = NetworkConfig::new().with_threads(threads);
+    let parts = LearnerParts::new(layout(), net, ReplayConfig::default(), 0.99);
+    Maddpg::new(parts, MaddpgConfig::new()).expect("a valid learner")
 }
+
+/// Q-target bounds of the 6 agents (wide: nothing is clipped).
+const BOUNDS: [(f32, f32); 6] = [(-100.0, 0.0); 6];
 
 fn joint_update(c: &mut Criterion) {
     let layout = layout();
@@ -99,7 +103,7 @@ fn joint_update(c: &mut Criterion) {
     for threads in [1, 2] {
         let mut l = learner(threads);
         group.bench_function(format!("threads_{threads}"), |bench| {
-            bench.iter(|| black_box(l.learn(black_box(&b)).expect("learn")));
+            bench.iter(|| black_box(l.learn_batch(black_box(&b), &BOUNDS).expect("learn")));
         });
     }
     group.finish();
@@ -107,7 +111,7 @@ fn joint_update(c: &mut Criterion) {
     let mut l = learner(2);
     let inputs: Vec<Vec<f32>> = (0..6).map(|i| values(layout.actor_input_dim(i), 40 + i)).collect();
     c.bench_function("ddpg_act_6_agents_one_observation", |bench| {
-        bench.iter(|| black_box(l.act(black_box(&inputs), 1).expect("act")));
+        bench.iter(|| black_box(l.act(black_box(&inputs), 1, ActMode::Evaluate).expect("act")));
     });
 }
 
@@ -117,11 +121,11 @@ fn our_rate(threads: usize, iters: usize) -> f64 {
     let b = batch(&layout);
     let mut l = learner(threads);
     for _ in 0..3 {
-        l.learn(&b).expect("learn");
+        l.learn_batch(&b, &BOUNDS).expect("learn");
     }
     let start = Instant::now();
     for _ in 0..iters {
-        black_box(l.learn(&b).expect("learn"));
+        black_box(l.learn_batch(&b, &BOUNDS).expect("learn"));
     }
     iters as f64 / start.elapsed().as_secs_f64()
 }

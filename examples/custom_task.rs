@@ -110,9 +110,6 @@ fn main() -> Result<()> {
         seed: 1,
         epochs: 5,
         cycles: 10,
-        batches: 20,
-        batch_size: 128,
-        buffer_size: 50_000,
         eval_episodes: 20,
         shadow: ShadowConfig {
             alpha: 0.05,
@@ -122,8 +119,10 @@ fn main() -> Result<()> {
         ..TrainerConfig::default()
     };
     let sharing = SharingConfig::default().build(&graph)?;
-    let ddpg = DdpgConfig::new().with_hidden(64).with_layers(2).with_seed(1).with_gamma(config.gamma_for(25));
-    let learner = DdpgLearner::new(layout.clone(), ddpg, sharing)?;
+    let networks = NetworkConfig::new().with_hidden(64).with_layers(2).with_seed(1);
+    let replay = ReplayConfig { batches: 20, batch_size: 128, buffer_size: 50_000, ..ReplayConfig::default() };
+    let parts = LearnerParts::new(layout.clone(), networks, replay, config.gamma_for(25)).with_sharing(sharing);
+    let learner = Maddpg::new(parts, MaddpgConfig::new())?;
     let mut trainer = Trainer::new(config, env, learner, layout)?;
     trainer.train(|_, s| {
         println!(

@@ -167,7 +167,7 @@ pub fn evaluate_run<E: Env + ContactReadout>(
         let mut trace = GraspTrace::new(dt)?;
         let mut metric_error = None;
         let mut distances = Vec::new();
-        let episode = trainer.rollout_with(seed, false, &mut |env, outcome| {
+        let episode = trainer.rollout_with(seed, ActMode::Evaluate, &mut |env, outcome| {
             let o = &outcome.observation;
             distances.push(env.goal_distance(&o.achieved_goal, &o.desired_goal));
             if let Err(e) = trace.push(&env.object_contacts())

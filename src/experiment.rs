@@ -6,18 +6,37 @@
 //! ```toml
 //! name = "block_dense_fmsr_is_quick"
 //! method = "dense_fmsr_is"      # dense_fmsr_is | dense_fmsr | dense | sparse
+//! algorithm = "maddpg"          # maddpg | matd3 | masac
 //! engine = "rapier"             # rapier | mujoco
+//! device = "cpu"
 //!
 //! [env]                         # fmsr_envs::shadow_hand::ShadowHandConfig
 //! object = "block"
 //!
-//! [trainer]                     # fmsr_core::trainer::TrainerConfig
+//! [trainer]                     # fmsr_core::trainer::TrainerConfig (seed, budget, gamma, shadow)
 //! seed = 0
 //! epochs = 3
 //!
-//! [ddpg]                        # fmsr_nn::DdpgConfig
+//! [replay]                      # fmsr_core::replay::ReplayConfig (buffer, batch, batches per cycle, HER)
+//! batch_size = 256
+//!
+//! [networks]                    # fmsr_nn::NetworkConfig (sizes, Adam, normalisers, threads)
 //! hidden = 64
+//!
+//! [maddpg]                      # the chosen algorithm's own section (fmsr_nn::MaddpgConfig, ...)
+//! polyak = 0.95
 //! ```
+//!
+//! # One owner per setting
+//!
+//! `method` is the paper's preset: it decides the task reward (`env.reward`),
+//! whether shadow rewards are on (`trainer.shadow.enabled`) and whether agents
+//! share information (`sharing.enabled`). Setting one of those keys to a value
+//! that contradicts the method is an error naming both keys; so is a section
+//! that the method or the algorithm does not use (`[sharing]` without
+//! information sharing, `[trainer.shadow]` without shadow rewards, `[matd3]`
+//! under `algorithm = "maddpg"`). The discount is `trainer.gamma`, used by the
+//! occupancy estimate and the critics alike.
 
 use std::path::{Path, PathBuf};
 
@@ -25,9 +44,13 @@ use serde::{Deserialize, Serialize};
 
 use fmsr_core::config::{Method, SharingConfig};
 use fmsr_core::prelude::*;
+use fmsr_core::replay::ReplayConfig;
 use fmsr_envs::shadow_hand::ShadowHandConfig;
 use fmsr_graph::Graph;
-use fmsr_nn::{DdpgConfig, DdpgLearner};
+use fmsr_nn::{
+    AlgorithmKind, AnyLearner, Device, LearnerParts, Maddpg, MaddpgConfig, Masac, MasacConfig, Matd3, Matd3Config,
+    NetworkConfig,
+};
 
 /// The timestep of the Shadow Hand model (s); one env step is `substeps` of them.
 pub const MODEL_TIMESTEP: f64 = 0.002;
@@ -129,22 +152,41 @@ pub struct ExperimentConfig {
     /// One of the paper's four configurations. It decides the task reward,
     /// whether shadow rewards are on and whether agents share information.
     pub method: Method,
+    /// The learning algorithm (default MADDPG, the paper's).
+    #[serde(default)]
+    pub algorithm: AlgorithmKind,
     /// The physics engine.
     #[serde(default)]
     pub engine: Engine,
+    /// The burn device the networks live on: `"cpu"` (burn's `flex`, default).
+    #[serde(default = "default_device")]
+    pub device: String,
     /// The Shadow Hand task (object, thresholds, features).
     #[serde(default)]
     pub env: ShadowHandConfig,
-    /// The training loop and the shadow rewards.
+    /// The training loop, the discount and the shadow rewards.
     #[serde(default)]
     pub trainer: TrainerConfig,
-    /// The networks and DDPG hyperparameters. The networks are initialised
-    /// from `trainer.seed + ddpg.seed`; `gamma` is the trainer's.
-    #[serde(default = "DdpgConfig::new")]
-    pub ddpg: DdpgConfig,
-    /// Information sharing settings (mode, target, mixing weights).
+    /// Replay storage and gradient steps per cycle (every algorithm here is off-policy).
     #[serde(default)]
-    pub sharing: SharingConfig,
+    pub replay: ReplayConfig,
+    /// Networks, optimisers and normalisers. They are initialised from
+    /// `trainer.seed + networks.seed`.
+    #[serde(default = "NetworkConfig::new")]
+    pub networks: NetworkConfig,
+    /// MADDPG's own settings (only with `algorithm = "maddpg"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub maddpg: Option<MaddpgConfig>,
+    /// MATD3's own settings (only with `algorithm = "matd3"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub matd3: Option<Matd3Config>,
+    /// MASAC's own settings (only with `algorithm = "masac"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub masac: Option<MasacConfig>,
+    /// Information sharing settings (mode, target, mixing weights); only with a
+    /// method that shares.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sharing: Option<SharingConfig>,
     /// The agents' graph (neighbours observed by actors, and mixed by IS).
     #[serde(default)]
     pub graph: GraphConfig,
@@ -154,6 +196,101 @@ pub struct ExperimentConfig {
     /// Checkpointing.
     #[serde(default)]
     pub run: RunConfig,
+}
+
+fn default_device() -> String {
+    "cpu".into()
+}
+
+/// Sections read through burn's `Config` derive, which neither rejects unknown
+/// keys nor fills in defaults when deserialising: (key, default as TOML).
+fn burn_sections() -> Result<Vec<(&'static str, toml::Table)>, toml::ser::Error> {
+    Ok(vec![
+        ("networks", toml::Table::try_from(NetworkConfig::new())?),
+        ("maddpg", toml::Table::try_from(MaddpgConfig::new())?),
+        ("matd3", toml::Table::try_from(Matd3Config::new())?),
+        ("masac", toml::Table::try_from(MasacConfig::new())?),
+    ])
+}
+
+/// `table[a][b]...` if present.
+fn lookup<'a>(table: &'a toml::Table, path: &[&str]) -> Option<&'a toml::Value> {
+    let (first, rest) = path.split_first()?;
+    let v = table.get(*first)?;
+    if rest.is_empty() { Some(v) } else { lookup(v.as_table()?, rest) }
+}
+
+/// Rejects keys and sections that contradict `method` or `algorithm` (see the module docs).
+fn check_owners(table: &toml::Table) -> Result<(), ExperimentError> {
+    let text = |path: &[&str]| lookup(table, path).and_then(toml::Value::as_str).map(str::to_owned);
+    let Some(method) = text(&["method"]).and_then(|m| Method::deserialize(toml::Value::String(m)).ok()) else {
+        return Ok(()); // a missing or unknown method is reported by the parser
+    };
+    let conflict = |key: &str, reason: String| Err(ExperimentError::Config { key: key.into(), reason });
+    let reward = if method.reward() == RewardType::Sparse { "sparse" } else { "dense" };
+    if let Some(r) = text(&["env", "reward"])
+        && r != reward
+    {
+        return conflict(
+            "env.reward",
+            format!("`{r}` contradicts `method = \"{}\"`, which sets it to `{reward}`", key_of(method)),
+        );
+    }
+    let flag = |path: &[&str]| lookup(table, path).and_then(toml::Value::as_bool);
+    for (path, on, what) in [
+        (&["trainer", "shadow", "enabled"][..], method.shadow(), "shadow rewards"),
+        (&["sharing", "enabled"][..], method.sharing(), "information sharing"),
+    ] {
+        if let Some(v) = flag(path)
+            && v != on
+        {
+            return conflict(
+                &path.join("."),
+                format!(
+                    "`{v}` contradicts `method = \"{}\"`, which turns {what} {}",
+                    key_of(method),
+                    if on { "on" } else { "off" }
+                ),
+            );
+        }
+    }
+    if !method.sharing() && table.contains_key("sharing") {
+        return conflict(
+            "sharing",
+            format!("`method = \"{}\"` does not share information; remove the section", key_of(method)),
+        );
+    }
+    if !method.shadow() && lookup(table, &["trainer", "shadow"]).is_some() {
+        return conflict(
+            "trainer.shadow",
+            format!("`method = \"{}\"` uses no shadow rewards; remove the section", key_of(method)),
+        );
+    }
+    let algorithm = text(&["algorithm"]).unwrap_or_else(|| "maddpg".into());
+    for kind in AlgorithmKind::ALL {
+        if kind.key() != algorithm && table.contains_key(kind.key()) {
+            return conflict(kind.key(), format!("`algorithm = \"{algorithm}\"` does not read `[{}]`", kind.key()));
+        }
+    }
+    Ok(())
+}
+
+fn key_of(method: Method) -> String {
+    toml::Value::try_from(method).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default()
+}
+
+/// The parsed device of `device` (`"cpu"`/`"flex"`).
+///
+/// # Errors
+/// [`ExperimentError::Config`] for a device this build cannot use.
+pub fn parse_device(device: &str) -> Result<Device, ExperimentError> {
+    match device {
+        "cpu" | "flex" => Ok(Device::flex()),
+        other => Err(ExperimentError::Config {
+            key: "device".into(),
+            reason: format!("`{other}` is not available in this build (known: \"cpu\")"),
+        }),
+    }
 }
 
 /// Errors of experiments and runs.
@@ -209,25 +346,36 @@ pub enum ExperimentError {
 }
 
 impl ExperimentConfig {
-    /// Parses a TOML experiment, rejecting unknown keys, wrong types and
-    /// impossible values with a message that names the key.
+    /// Parses a TOML experiment, rejecting unknown keys, wrong types, impossible
+    /// values and settings that contradict their owner with a message that
+    /// names the key.
+    ///
+    /// # Errors
+    /// [`ExperimentError::Parse`] or [`ExperimentError::Config`].
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, ExperimentError> {
         let parse_err = |message: String| ExperimentError::Parse { path: path.to_path_buf(), message };
         let mut value: toml::Table = toml::from_str(text).map_err(|e| parse_err(e.to_string()))?;
-        // burn's Config derive neither ignores nor defaults keys when deserialising:
-        // check [ddpg] against its fields and fill in the defaults.
-        if let Some(ddpg) = value.get_mut("ddpg") {
-            let mut merged = toml::Table::try_from(DdpgConfig::new()).map_err(|e| parse_err(e.to_string()))?;
-            let table = ddpg.as_table().ok_or_else(|| parse_err("`ddpg` must be a table".into()))?;
+        if value.contains_key("ddpg") {
+            return Err(parse_err(
+                "`[ddpg]` was split: network sizes, learning rates, normalisers and threads are in `[networks]`, \
+                 polyak and exploration in `[maddpg]`, batch settings in `[replay]`"
+                    .into(),
+            ));
+        }
+        check_owners(&value)?;
+        for (key, defaults) in burn_sections().map_err(|e| parse_err(e.to_string()))? {
+            let Some(section) = value.get_mut(key) else { continue };
+            let table = section.as_table().ok_or_else(|| parse_err(format!("`{key}` must be a table")))?;
+            let mut merged = defaults;
             for (k, v) in table {
                 if !merged.contains_key(k) {
                     let mut names: Vec<_> = merged.keys().cloned().collect();
                     names.sort();
-                    return Err(parse_err(format!("unknown key `ddpg.{k}`, expected one of {}", names.join(", "))));
+                    return Err(parse_err(format!("unknown key `{key}.{k}`, expected one of {}", names.join(", "))));
                 }
                 merged.insert(k.clone(), v.clone());
             }
-            *ddpg = toml::Value::Table(merged);
+            *section = toml::Value::Table(merged);
         }
         let config = ExperimentConfig::deserialize(toml::Value::Table(value)).map_err(|e| parse_err(e.to_string()))?;
         config.validate()?;
@@ -240,15 +388,42 @@ impl ExperimentConfig {
         Self::from_toml(&text, path)
     }
 
-    /// The configuration as TOML.
+    /// The configuration as TOML, without the keys the method owns (so it reads back as the same config).
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] if a value cannot be written as TOML.
     pub fn to_toml(&self) -> Result<String, ExperimentError> {
-        toml::to_string_pretty(self).map_err(|e| ExperimentError::Config { key: "(all)".into(), reason: e.to_string() })
+        let err = |e: toml::ser::Error| ExperimentError::Config { key: "(all)".into(), reason: e.to_string() };
+        let mut table = toml::Table::try_from(self).map_err(err)?;
+        if let Some(toml::Value::Table(env)) = table.get_mut("env") {
+            env.remove("reward");
+        }
+        if let Some(toml::Value::Table(trainer)) = table.get_mut("trainer") {
+            if self.method.shadow() {
+                if let Some(toml::Value::Table(shadow)) = trainer.get_mut("shadow") {
+                    shadow.remove("enabled");
+                }
+            } else {
+                trainer.remove("shadow");
+            }
+        }
+        if let Some(toml::Value::Table(sharing)) = table.get_mut("sharing") {
+            sharing.remove("enabled");
+        }
+        toml::to_string_pretty(&table).map_err(err)
     }
 
     /// Checks the values that do not need the environment.
     pub fn validate(&self) -> Result<(), ExperimentError> {
         self.trainer.validate()?;
-        self.ddpg.validate()?;
+        self.replay.validate()?;
+        self.networks.validate()?;
+        match self.algorithm {
+            AlgorithmKind::Maddpg => self.maddpg_config().validate()?,
+            AlgorithmKind::Matd3 => self.matd3_config().validate()?,
+            AlgorithmKind::Masac => self.masac_config().validate()?,
+        }
+        parse_device(&self.device)?;
         if self.name.trim().is_empty() || self.name.contains(['/', '\\']) {
             return Err(ExperimentError::Config { key: "name".into(), reason: "must be a non-empty file name".into() });
         }
@@ -278,12 +453,33 @@ impl ExperimentConfig {
     /// The sharing config switched by the method.
     #[must_use]
     pub fn sharing_config(&self) -> SharingConfig {
-        SharingConfig { enabled: self.method.sharing(), ..self.sharing.clone() }
+        SharingConfig { enabled: self.method.sharing(), ..self.sharing.clone().unwrap_or_default() }
+    }
+
+    /// MADDPG's settings (defaults where the section is absent).
+    #[must_use]
+    pub fn maddpg_config(&self) -> MaddpgConfig {
+        self.maddpg.clone().unwrap_or_else(MaddpgConfig::new)
+    }
+
+    /// MATD3's settings.
+    #[must_use]
+    pub fn matd3_config(&self) -> Matd3Config {
+        self.matd3.clone().unwrap_or_else(Matd3Config::new)
+    }
+
+    /// MASAC's settings.
+    #[must_use]
+    pub fn masac_config(&self) -> MasacConfig {
+        self.masac.clone().unwrap_or_else(MasacConfig::new)
     }
 
     /// Builds the learner and the trainer on `env`, checking everything that
     /// needs the environment (agents, features, graph, mixing matrix).
-    pub fn build_trainer<E: Env>(&self, env: E) -> Result<Trainer<E, DdpgLearner>, ExperimentError> {
+    ///
+    /// # Errors
+    /// [`ExperimentError`] naming the key of the first setting that does not fit `env`.
+    pub fn build_trainer<E: Env>(&self, env: E) -> Result<Trainer<E, AnyLearner>, ExperimentError> {
         let spec = env.spec().clone();
         let graph = self.graph.build(&spec)?;
         let layout = ObservationLayout::from_graph(spec.clone(), &graph)
@@ -297,12 +493,16 @@ impl ExperimentConfig {
             .sharing_config()
             .build(&graph)
             .map_err(|source| ExperimentError::Invalid { key: "sharing.mixing", source })?;
-        let ddpg = self
-            .ddpg
-            .clone()
-            .with_gamma(trainer_config.gamma_for(spec.episode_len))
-            .with_seed(trainer_config.seed.wrapping_add(self.ddpg.seed));
-        let learner = DdpgLearner::new(layout.clone(), ddpg, sharing)?;
+        let networks = self.networks.clone().with_seed(trainer_config.seed.wrapping_add(self.networks.seed));
+        let parts =
+            LearnerParts::new(layout.clone(), networks, self.replay, trainer_config.gamma_for(spec.episode_len))
+                .with_sharing(sharing)
+                .with_device(parse_device(&self.device)?);
+        let learner = match self.algorithm {
+            AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, self.maddpg_config())?),
+            AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, self.matd3_config())?),
+            AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, self.masac_config())?),
+        };
         Ok(Trainer::new(trainer_config, env, learner, layout)?)
     }
 }

@@ -42,6 +42,9 @@ struct TrainArgs {
     /// Seed of the trainer (and of the networks), overriding the config.
     #[arg(long)]
     seed: Option<u64>,
+    /// The burn device of the networks (`cpu`), overriding the config.
+    #[arg(long)]
+    device: Option<String>,
     /// Number of epochs, overriding the config (with --resume: train up to this many).
     #[arg(long)]
     epochs: Option<usize>,
@@ -101,6 +104,7 @@ fn main() -> Result<()> {
                 config: args.config.clone(),
                 engine: None,
                 seed: None,
+                device: None,
                 epochs: None,
                 resume: RunDir::new(&out).checkpoint().exists(),
                 out: Some(out),
@@ -144,6 +148,9 @@ fn resolve_config(args: &TrainArgs) -> Result<(ExperimentConfig, RunDir, bool)> 
     if let Some(epochs) = args.epochs {
         config.trainer.epochs = epochs;
     }
+    if let Some(device) = &args.device {
+        config.device.clone_from(device);
+    }
     config.validate()?;
     Ok((config, dir, resume))
 }
@@ -171,9 +178,10 @@ fn train(args: &TrainArgs) -> Result<RunDir> {
     let (config, dir, resume) = resolve_config(args)?;
     let done = if resume { dir.load_metrics().map(|m| m.len()).unwrap_or(0) } else { 0 };
     eprintln!(
-        "training {} ({}, {:?}) for {} epochs into {}{}",
+        "training {} ({}, {}, {:?}) for {} epochs into {}{}",
         config.name,
         config.method.label(),
+        config.algorithm.key(),
         config.engine,
         config.trainer.epochs,
         dir.root().display(),

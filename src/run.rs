@@ -150,7 +150,7 @@ pub fn train<E: Env>(
     dir: &RunDir,
     resume: bool,
     mut on_epoch: impl FnMut(&EpochStats),
-) -> Result<Trainer<E, fmsr_nn::DdpgLearner>, ExperimentError> {
+) -> Result<Trainer<E, fmsr_nn::AnyLearner>, ExperimentError> {
     let mut trainer = config.build_trainer(env)?;
     if resume {
         trainer.load_checkpoint(&dir.checkpoint())?;

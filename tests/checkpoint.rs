@@ -83,13 +83,13 @@ fn bad_checkpoints_are_clear_errors() {
     let err = other.load_checkpoint(&path).unwrap_err();
     assert!(matches!(err, CoreError::InvalidConfig { .. }), "{err}");
 
-    // A learner of another shape: Dense+FMSR on the same seed has the same
-    // shapes, so build one with a different network size by hand.
-    let env = TeamReachConfig::default().init().unwrap();
-    let graph = Graph::ring(3);
-    let layout = ObservationLayout::from_graph(env.spec().clone(), &graph).unwrap();
-    let learner = DdpgLearner::new(layout.clone(), DdpgConfig::new().with_hidden(32).with_layers(2), None).unwrap();
+    // A learner of another shape: wider networks on the same config.
+    let env = common::team_reach(Method::Dense);
+    let mut parts = common::parts(&env, Method::Dense, 3, 0.9);
+    parts.networks = parts.networks.with_hidden(32);
+    let layout = parts.layout.clone();
+    let learner = AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new()).unwrap());
     let mut wrong = Trainer::new(common::trainer_config(Method::Dense, 3, 1), env, learner, layout).unwrap();
     let err = wrong.load_checkpoint(&path).unwrap_err();
-    assert!(matches!(err, CoreError::Agent(_)), "{err}");
+    assert!(matches!(err, CoreError::Algorithm(_)), "{err}");
 }

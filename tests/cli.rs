@@ -1,7 +1,8 @@
 //! Guards the `fmsr` command end to end (issue 6): train -> eval -> report on a
 //! tiny budget on the rapier Shadow Hand writes every file of a run and a report;
-//! `--resume` continues a run; bad configs are rejected before training with a
-//! message that names the key.
+//! `--resume` continues a run; bad configs, and settings that contradict their
+//! owner (`method`, `algorithm`), are rejected before the run directory exists
+//! with a message that names the key; each algorithm trains on the hand.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -89,10 +90,17 @@ fn train_eval_report_and_resume() {
 fn bad_configs_are_rejected_naming_the_key() {
     let tmp = tempfile::tempdir().unwrap();
     type Edit = fn(String) -> String;
-    let cases: [(Edit, &str); 8] = [
+    let cases: [(Edit, &str); 13] = [
         (|t| t + "[run]\ncheckpoint_replays = true\n", "checkpoint_replays"),
         (|t| t.replace("batch_size = 32", "batch_size = \"many\""), "batch_size"),
-        (|t| t.replace("hidden = 32", "hiden = 32"), "ddpg.hiden"),
+        (|t| t.replace("hidden = 32", "hiden = 32"), "networks.hiden"),
+        // One owner per setting: the method owns the task reward, shadow rewards and sharing.
+        (|t| t.replace("[env]\n", "[env]\nreward = \"sparse\"\n"), "env.reward"),
+        (|t| t.replace("[sharing]\n", "[sharing]\nenabled = false\n"), "sharing.enabled"),
+        (|t| t.replace("method = \"dense_fmsr_is\"", "method = \"dense_fmsr\""), "`sharing`"),
+        // A section of an algorithm that is not chosen.
+        (|t| t + "[matd3]\npolicy_delay = 3\n", "matd3"),
+        (|t| t.replace("[networks]", "[ddpg]"), "[networks]"),
         (
             |t| {
                 t.replace(
@@ -127,6 +135,25 @@ fn bad_configs_are_rejected_naming_the_key() {
         let out = fmsr(&["train", "--config", config.to_str().unwrap(), "--out", dir.join("run").to_str().unwrap()]);
         assert!(!out.status.success(), "case {i} was accepted");
         assert!(text(&out).contains(key), "case {i}: the error does not name `{key}`:\n{}", text(&out));
-        assert!(!dir.join("run").join("checkpoint.bin").exists(), "case {i} started training");
+        assert!(!dir.join("run").exists(), "case {i} created the run directory");
+    }
+}
+
+#[test]
+fn every_algorithm_trains_on_the_hand() {
+    let tmp = tempfile::tempdir().unwrap();
+    for algorithm in ["maddpg", "matd3", "masac"] {
+        let dir = tmp.path().join(algorithm);
+        std::fs::create_dir_all(&dir).unwrap();
+        let config = tiny_config(&dir, "");
+        let text_in = std::fs::read_to_string(&config).unwrap();
+        let edited = text_in
+            .replace("method = \"dense_fmsr_is\"", &format!("method = \"dense_fmsr_is\"\nalgorithm = \"{algorithm}\""));
+        std::fs::write(&config, edited).unwrap();
+        let run = dir.join("run");
+        let out = fmsr(&["train", "--config", config.to_str().unwrap(), "--out", run.to_str().unwrap()]);
+        assert!(out.status.success(), "{algorithm}: {}", text(&out));
+        assert!(std::fs::read_to_string(run.join("config.toml")).unwrap().contains(algorithm));
+        assert_eq!(std::fs::read_to_string(run.join("metrics.jsonl")).unwrap().lines().count(), 1);
     }
 }

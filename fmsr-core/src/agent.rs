@@ -1,52 +1,11 @@
-//! The learning side: the [`Agent`] trait, the actor observation layout and the
-//! batch of joint transitions every agent learns from.
+//! What every learner shares: the actor observation layout, the batch of joint
+//! transitions every agent learns from, information-sharing settings and the
+//! communicator between worker processes.
 
 use serde::{Deserialize, Serialize};
 
 use crate::error::CoreError;
 use crate::spec::{EnvSpec, JointAction, Observation};
-
-/// The agents' learning system: one actor and one critic per agent of the
-/// environment (MAGCLA: critics see the global observation, the goal and all
-/// actions; actors see their actor input, see [`ObservationLayout`]).
-///
-/// Implemented by the burn DDPG learner of `fmsr-nn`, or by your own.
-pub trait Agent {
-    /// The error of this learner.
-    type Error: std::error::Error + Send + Sync + 'static;
-
-    /// Number of agents.
-    fn num_agents(&self) -> usize;
-
-    /// Deterministic actions of every agent, each in `[-1, 1]`, from a batch of
-    /// actor inputs: `inputs[i]` holds `n` rows of agent `i`'s actor input, row
-    /// major. Returns, for every agent, `n` rows of its action.
-    fn act(&mut self, inputs: &[Vec<f32>], n: usize) -> Result<Vec<Vec<f32>>, Self::Error>;
-
-    /// One update of every agent's critic and actor from the same batch
-    /// (experience synchronisation), followed by information sharing when the
-    /// learner is configured with it.
-    fn learn(&mut self, batch: &Batch) -> Result<LearnStats, Self::Error>;
-
-    /// Moves the target networks towards the online networks (polyak averaging, eq. 9).
-    fn update_targets(&mut self) -> Result<(), Self::Error>;
-
-    /// The parameters of agent `agent` that consensus mixes (the shared-shape
-    /// actor trunk), flattened.
-    fn consensus_params(&self, agent: usize) -> Result<Vec<f32>, Self::Error>;
-
-    /// Replaces the parameters returned by [`Agent::consensus_params`].
-    fn set_consensus_params(&mut self, agent: usize, params: &[f32]) -> Result<(), Self::Error>;
-}
-
-/// Losses of one [`Agent::learn`] call, one value per agent.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
-pub struct LearnStats {
-    /// Critic (TD) loss of each agent.
-    pub critic_loss: Vec<f32>,
-    /// Actor loss of each agent.
-    pub actor_loss: Vec<f32>,
-}
 
 /// How an actor's input is assembled (DESIGN.md 3.2): its local observation,
 /// the goal, and its graph neighbours' previous actions, in that order.
@@ -179,8 +138,6 @@ pub struct Batch {
     pub features: Vec<f32>,
     /// Each agent's reward (task and shadow, eq. 7), per agent `size`.
     pub rewards: Vec<Vec<f32>>,
-    /// Each agent's bounds of the Q target (`clip_return`, DESIGN.md 3.10).
-    pub q_bounds: Vec<(f32, f32)>,
 }
 
 /// What information sharing mixes (DESIGN.md 3.7).
@@ -240,14 +197,4 @@ impl Communicator for SingleProcess {
     }
 
     fn all_reduce_mean(&self, _values: &mut [f32]) {}
-}
-
-/// The optional ability of a learner to save and restore its whole state
-/// (networks, optimiser state, normalisers), for checkpoints.
-pub trait SaveState: Agent {
-    /// The learner's state as bytes.
-    fn save_state(&self) -> Result<Vec<u8>, Self::Error>;
-    /// Restores a state written by [`SaveState::save_state`]; a state of another
-    /// shape is an error, never a panic.
-    fn load_state(&mut self, bytes: &[u8]) -> Result<(), Self::Error>;
 }

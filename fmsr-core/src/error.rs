@@ -99,9 +99,9 @@ pub enum CoreError {
     /// An error of the environment.
     #[error("environment: {0}")]
     Env(#[source] Box<dyn std::error::Error + Send + Sync>),
-    /// An error of the learning agent.
-    #[error("agent: {0}")]
-    Agent(#[source] Box<dyn std::error::Error + Send + Sync>),
+    /// An error of the algorithm (its policy or its updates).
+    #[error("algorithm: {0}")]
+    Algorithm(#[source] Box<dyn std::error::Error + Send + Sync>),
     /// Reading or writing a file failed.
     #[error("{path}: {source}")]
     Io {

@@ -53,34 +53,44 @@
 //! ## Contents
 //!
 //! - [`Env`], [`ContactReadout`]: environments and their optional contact read-out.
-//! - [`Agent`]: the learners; [`agent::ObservationLayout`] assembles actor inputs.
-//! - [`OccupancyEstimator`], [`ShadowReward`]: occupancy and shadow rewards.
+//! - [`Policy`] (acting for all agents, with its own exploration) and
+//!   [`Algorithm`] (a policy that owns its storage, update schedule, targets and
+//!   save/restore); [`agent::ObservationLayout`] assembles actor inputs.
+//! - [`Collector`]: runs episodes, estimates occupancy with any
+//!   [`OccupancyEstimator`] and rewards agents with any [`ShadowReward`].
+//! - [`sharing::InformationSharing`]: the algorithm-independent consensus step (eq. 8).
 //! - [`replay::ReplayBuffer`]: joint transitions with HER "future" relabelling.
+//! - [`trainer::Trainer`]: collect -> store -> update (and share) -> evaluate -> checkpoint.
 #![warn(missing_docs)]
 
 pub mod agent;
+pub mod algorithm;
+pub mod collector;
 pub mod config;
 pub mod env;
 pub mod error;
 pub mod metrics;
 pub mod occupancy;
+pub mod policy;
 pub mod replay;
 pub mod shadow;
+pub mod sharing;
 pub mod spec;
 pub mod trainer;
 
-pub use agent::Agent;
+pub use algorithm::{Algorithm, RewardModel};
+pub use collector::Collector;
 pub use env::{ContactReadout, Env};
 pub use error::CoreError;
 pub use occupancy::OccupancyEstimator;
+pub use policy::{ActMode, Policy};
 pub use shadow::ShadowReward;
 
 /// The items most users need.
 pub mod prelude {
-    pub use crate::agent::{
-        Agent, Batch, Communicator, LearnStats, ObservationLayout, SaveState, ShareMode, ShareTarget, Sharing,
-        SingleProcess,
-    };
+    pub use crate::agent::{Batch, Communicator, ObservationLayout, ShareMode, ShareTarget, Sharing, SingleProcess};
+    pub use crate::algorithm::{Algorithm, RewardModel, UpdateStats};
+    pub use crate::collector::Collector;
     pub use crate::config::{Method, MixingChoice, ShadowConfig, SharingConfig};
     pub use crate::env::{ContactPoint, ContactReadout, Env, ObjectContacts};
     pub use crate::error::CoreError;
@@ -89,8 +99,10 @@ pub mod prelude {
         StabilityRow,
     };
     pub use crate::occupancy::{Averaging, DiscountedOccupancy, OccupancyEstimator};
-    pub use crate::replay::{Episode, HerConfig, ReplayBuffer};
+    pub use crate::policy::{ActMode, Policy, PolicyOutput};
+    pub use crate::replay::{Episode, HerConfig, ReplayBuffer, ReplayConfig};
     pub use crate::shadow::{AgentReward, AgentRewards, LogUtility, RewardAssignment, ShadowMode, ShadowReward};
+    pub use crate::sharing::{InformationSharing, NetworkGroup, SharedParameters};
     pub use crate::spec::{AgentSpec, EnvSpec, JointAction, Observation, RewardType, StepInfo, StepOutcome};
     pub use crate::trainer::{EpochStats, EvalSummary, Trainer, TrainerConfig};
 }

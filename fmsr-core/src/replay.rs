@@ -46,6 +46,45 @@ impl HerConfig {
     }
 }
 
+/// The replay storage and update schedule of the off-policy algorithms
+/// (defaults: HER baselines' and the paper's, DESIGN.md 3.10).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ReplayConfig {
+    /// Replay capacity in transitions (1e6).
+    pub buffer_size: usize,
+    /// Samples per gradient step (256).
+    pub batch_size: usize,
+    /// Gradient steps per training cycle (paper: 25).
+    pub batches: usize,
+    /// Hindsight relabelling.
+    pub her: HerConfig,
+}
+
+impl Default for ReplayConfig {
+    fn default() -> Self {
+        Self { buffer_size: 1_000_000, batch_size: 256, batches: 25, her: HerConfig::default() }
+    }
+}
+
+impl ReplayConfig {
+    /// Checks every value, naming the key of the first impossible one.
+    ///
+    /// ```
+    /// use fmsr_core::replay::ReplayConfig;
+    /// assert!(ReplayConfig::default().validate().is_ok());
+    /// assert!(ReplayConfig { batch_size: 0, ..ReplayConfig::default() }.validate().is_err());
+    /// ```
+    pub fn validate(&self) -> Result<(), CoreError> {
+        for (key, v) in [("replay.buffer_size", self.buffer_size), ("replay.batch_size", self.batch_size)] {
+            if v == 0 {
+                return Err(CoreError::InvalidConfig { key: key.into(), reason: "must be at least 1".into() });
+            }
+        }
+        Ok(())
+    }
+}
+
 /// One recorded episode: `T + 1` observations, `T` joint actions and `T` step infos.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 pub struct Episode {
@@ -55,9 +94,24 @@ pub struct Episode {
     pub actions: Vec<JointAction>,
     /// Infos of the steps (features `phi(s_t, a_t)`, success, drop).
     pub infos: Vec<StepInfo>,
+    /// `log pi_i(a_i | o_i)` of every agent at every step, when the policy
+    /// reports them (stochastic policies); empty otherwise.
+    #[serde(default)]
+    pub log_probs: Vec<Vec<f32>>,
 }
 
 impl Episode {
+    /// An empty episode with room for `steps` steps.
+    #[must_use]
+    pub fn with_capacity(steps: usize) -> Self {
+        Self {
+            observations: Vec::with_capacity(steps + 1),
+            actions: Vec::with_capacity(steps),
+            infos: Vec::with_capacity(steps),
+            log_probs: Vec::new(),
+        }
+    }
+
     /// The feature trajectory `phi(s_t, a_t)`, `t = 0 .. T-1`.
     #[must_use]
     pub fn features(&self) -> Vec<Vec<f32>> {
@@ -192,7 +246,7 @@ impl ReplayBuffer {
     /// `goal_reward(achieved, desired)` recomputes the task reward (normally
     /// [`crate::Env::goal_reward`]); `agent_rewards(task, phi, out)` writes every
     /// agent's reward (e.g. [`crate::shadow::AgentRewards::compute`] with the
-    /// current occupancy). `q_bounds` of the batch are left empty for the caller.
+    /// current occupancy).
     pub fn sample<R: Rng + ?Sized>(
         &self,
         n: usize,
@@ -230,7 +284,6 @@ impl ReplayBuffer {
             task_rewards: Vec::with_capacity(n),
             features: Vec::with_capacity(n * k),
             rewards: vec![Vec::with_capacity(n); agents],
-            q_bounds: Vec::new(),
         };
         let zeros = vec![0.0f32; ad];
         let mut out = vec![0.0f32; agents];
@@ -433,6 +486,7 @@ mod tests {
             observations: (0..=T).map(obs).collect(),
             actions: (0..T).map(|t| JointAction(vec![t as f32, ef, -(t as f32)])).collect(),
             infos: (0..T).map(|t| StepInfo { features: vec![(t % 2) as f32], ..StepInfo::default() }).collect(),
+            log_probs: Vec::new(),
         }
     }
 

@@ -1,14 +1,15 @@
-//! The training loop of Algorithm 1: epochs x cycles x (rollouts, then batches
-//! of updates), with exploration, occupancy estimation, shadow rewards,
-//! per-epoch evaluation and checkpoints.
+//! The training loop of Algorithm 1: epochs x cycles of
+//! collect -> store -> update (with information sharing) -> evaluate -> checkpoint.
 //!
-//! Each cycle: `episodes_per_cycle` rollouts with exploration noise (Gaussian
-//! `noise_eps`, and with probability `random_eps` a uniformly random joint action,
-//! as HER baselines) are stored in the shared replay buffer and their features
-//! update the occupancy estimate `lambda` (eq. 1); then `batches` updates, each on
-//! one HER batch shared by all agents with every agent's reward `r_i` (eq. 7) computed
-//! from the current `lambda`; then the target networks move (eq. 9). At the end of an
-//! epoch the deterministic policy is evaluated on fresh seeded episodes.
+//! Each cycle: `episodes_per_cycle` rollouts with the algorithm's exploration
+//! ([`Trainer::collect`]); each episode goes into the algorithm's storage and its
+//! features update the occupancy estimate `lambda` (eq. 1); then the algorithm's
+//! updates of the cycle ([`Trainer::update`]), with every agent's reward `r_i`
+//! (eq. 7) computed from the current `lambda` by the [`Collector`], and the
+//! information sharing the algorithm applies between its critic and actor steps
+//! ([`crate::sharing`]). At the end of an epoch the policy is evaluated on fresh
+//! seeded episodes ([`Trainer::evaluate`]); the caller of [`Trainer::train`]
+//! writes the checkpoint.
 
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
@@ -16,22 +17,28 @@ use std::time::Instant;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
-use crate::agent::{Agent, LearnStats, ObservationLayout, SaveState};
+use crate::agent::ObservationLayout;
+use crate::algorithm::{Algorithm, UpdateStats};
+use crate::collector::Collector;
 use crate::config::ShadowConfig;
 use crate::env::Env;
 use crate::error::CoreError;
 use crate::occupancy::{DiscountedOccupancy, OccupancyEstimator};
-use crate::replay::{Episode, HerConfig, ReplayBuffer};
-use crate::shadow::AgentRewards;
-use crate::spec::{JointAction, StepInfo, StepOutcome};
+use crate::policy::ActMode;
+use crate::replay::Episode;
+use crate::shadow::{LogUtility, ShadowReward};
+use crate::spec::{StepInfo, StepOutcome};
 
-/// Settings of the training loop (defaults: the paper's, DESIGN.md 3.10).
+/// Settings of the training loop (defaults: the paper's, DESIGN.md 3.10). The
+/// algorithm's own settings (replay, batches, networks, exploration) live in
+/// its config.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct TrainerConfig {
-    /// Seed of every random choice of the trainer (episode seeds, noise, sampling).
+    /// Seed of the trainer's random choices (episode seeds, evaluation seeds).
     pub seed: u64,
     /// Epochs (paper: 400).
     pub epochs: usize,
@@ -39,19 +46,7 @@ pub struct TrainerConfig {
     pub cycles: usize,
     /// Rollouts per cycle (HER baselines: 2 per worker).
     pub episodes_per_cycle: usize,
-    /// Updates per cycle (paper: 25).
-    pub batches: usize,
-    /// Samples per update (256).
-    pub batch_size: usize,
-    /// Replay capacity in transitions (1e6).
-    pub buffer_size: usize,
-    /// Std of the Gaussian exploration noise on actions in `[-1, 1]` (0.2).
-    pub noise_eps: f32,
-    /// Probability of a uniformly random joint action (0.3).
-    pub random_eps: f32,
-    /// Hindsight relabelling.
-    pub her: HerConfig,
-    /// Discount; `None` is `1 - 1/T`.
+    /// Discount of the whole method: occupancy (eq. 1) and critic targets; `None` is `1 - 1/T`.
     pub gamma: Option<f64>,
     /// Evaluation episodes at the end of every epoch (paper: 50).
     pub eval_episodes: usize,
@@ -66,12 +61,6 @@ impl Default for TrainerConfig {
             epochs: 400,
             cycles: 25,
             episodes_per_cycle: 2,
-            batches: 25,
-            batch_size: 256,
-            buffer_size: 1_000_000,
-            noise_eps: 0.2,
-            random_eps: 0.3,
-            her: HerConfig::default(),
             gamma: None,
             eval_episodes: 50,
             shadow: ShadowConfig::default(),
@@ -81,33 +70,33 @@ impl Default for TrainerConfig {
 
 impl TrainerConfig {
     /// Checks every value, naming the key of the first impossible one.
+    ///
+    /// ```
+    /// use fmsr_core::trainer::TrainerConfig;
+    /// assert!(TrainerConfig::default().validate().is_ok());
+    /// assert!(TrainerConfig { gamma: Some(1.0), ..TrainerConfig::default() }.validate().is_err());
+    /// ```
     pub fn validate(&self) -> Result<(), CoreError> {
         let bad = |key: &str, reason: &str| Err(CoreError::InvalidConfig { key: key.into(), reason: reason.into() });
-        for (key, v) in [
-            ("cycles", self.cycles),
-            ("episodes_per_cycle", self.episodes_per_cycle),
-            ("batch_size", self.batch_size),
-            ("buffer_size", self.buffer_size),
-        ] {
+        for (key, v) in [("trainer.cycles", self.cycles), ("trainer.episodes_per_cycle", self.episodes_per_cycle)] {
             if v == 0 {
                 return bad(key, "must be at least 1");
             }
         }
-        if !(0.0..=1.0).contains(&self.random_eps) {
-            return bad("random_eps", "must be in [0, 1]");
-        }
-        if !(self.noise_eps.is_finite() && self.noise_eps >= 0.0) {
-            return bad("noise_eps", "must be finite and nonnegative");
-        }
         if let Some(g) = self.gamma
             && !(0.0..1.0).contains(&g)
         {
-            return bad("gamma", "must be in [0, 1)");
+            return bad("trainer.gamma", "must be in [0, 1)");
         }
         Ok(())
     }
 
     /// The discount for episodes of length `horizon`: `gamma` or `1 - 1/T`.
+    ///
+    /// ```
+    /// use fmsr_core::trainer::TrainerConfig;
+    /// assert_eq!(TrainerConfig::default().gamma_for(100), 0.99);
+    /// ```
     #[must_use]
     pub fn gamma_for(&self, horizon: usize) -> f64 {
         self.gamma.unwrap_or(1.0 - 1.0 / horizon as f64)
@@ -149,7 +138,7 @@ pub struct EpochStats {
     pub seconds: f64,
 }
 
-/// Result of evaluating the deterministic policy on a set of seeded episodes.
+/// Result of evaluating the policy on a set of seeded episodes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 pub struct EvalSummary {
     /// Episodes run.
@@ -164,35 +153,68 @@ pub struct EvalSummary {
     pub final_distances: Vec<f32>,
 }
 
+/// The loop's own state: what a checkpoint restores besides the algorithm and the estimator.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 struct TrainerState {
     epoch: usize,
     rng: ChaCha8Rng,
-    env_steps: u64,
     updates: u64,
-    occupancy: DiscountedOccupancy,
     history: Vec<EpochStats>,
+}
+
+/// The running sums of one epoch.
+#[derive(Debug, Default)]
+struct EpochTally {
+    returns: Vec<f64>,
+    features: Vec<f64>,
+    successes: usize,
+    episodes: usize,
+    steps: usize,
+    critic_loss: Vec<f64>,
+    actor_loss: Vec<f64>,
+    loss_cycles: usize,
+    updates: u64,
+    update_seconds: f64,
+}
+
+impl EpochTally {
+    fn new(agents: usize, features: usize) -> Self {
+        Self {
+            returns: vec![0.0; agents],
+            features: vec![0.0; features],
+            critic_loss: vec![0.0; agents],
+            actor_loss: vec![0.0; agents],
+            ..Self::default()
+        }
+    }
+
+    fn add_episode(&mut self, episode: &Episode, returns: &[f64]) {
+        self.returns.iter_mut().zip(returns).for_each(|(a, r)| *a += r);
+        accumulate_features(&episode.infos, &mut self.features);
+        self.successes += usize::from(episode.infos.last().is_some_and(|i| i.is_success));
+        self.episodes += 1;
+        self.steps += episode.infos.len();
+    }
+
+    fn add_update(&mut self, stats: &UpdateStats, seconds: f64) {
+        self.update_seconds += seconds;
+        if stats.updates == 0 {
+            return;
+        }
+        self.updates += stats.updates;
+        self.loss_cycles += 1;
+        self.critic_loss.iter_mut().zip(&stats.critic_loss).for_each(|(a, v)| *a += v);
+        self.actor_loss.iter_mut().zip(&stats.actor_loss).for_each(|(a, v)| *a += v);
+    }
 }
 
 /// The training loop; see the [module docs](self).
 #[derive(Debug)]
-pub struct Trainer<E, A> {
+pub struct Trainer<E, A, O = DiscountedOccupancy, S = LogUtility> {
     config: TrainerConfig,
-    env: E,
-    agent: A,
-    layout: ObservationLayout,
-    replay: ReplayBuffer,
-    rewards: AgentRewards,
-    q_bounds: Vec<(f32, f32)>,
+    collector: Collector<E, O, S>,
+    algorithm: A,
     state: TrainerState,
-}
-
-fn env_err<E: std::error::Error + Send + Sync + 'static>(e: E) -> CoreError {
-    CoreError::Env(Box::new(e))
-}
-
-fn agent_err<E: std::error::Error + Send + Sync + 'static>(e: E) -> CoreError {
-    CoreError::Agent(Box::new(e))
 }
 
 /// A well-mixed 64-bit hash (splitmix64), used to derive evaluation seeds.
@@ -204,50 +226,51 @@ pub fn splitmix64(mut x: u64) -> u64 {
     x ^ (x >> 31)
 }
 
-/// Standard normal sample by the Box-Muller transform.
-fn gaussian<R: Rng + ?Sized>(rng: &mut R) -> f32 {
-    let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
-    let u2: f64 = rng.random::<f64>();
-    ((-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()) as f32
+fn algo_err<E: std::error::Error + Send + Sync + 'static>(e: E) -> CoreError {
+    CoreError::Algorithm(Box::new(e))
 }
 
-impl<E: Env, A: Agent> Trainer<E, A> {
-    /// A trainer of `agent` on `env`, whose actors see inputs laid out by `layout`.
-    pub fn new(config: TrainerConfig, env: E, agent: A, layout: ObservationLayout) -> Result<Self, CoreError> {
+impl<E: Env, A: Algorithm> Trainer<E, A> {
+    /// A trainer of `algorithm` on `env` with the paper's occupancy estimator and
+    /// log utility as configured in `config.shadow`; actors see inputs laid out by `layout`.
+    ///
+    /// # Errors
+    /// [`CoreError`] naming the first setting that does not fit `env`.
+    pub fn new(config: TrainerConfig, env: E, algorithm: A, layout: ObservationLayout) -> Result<Self, CoreError> {
         config.validate()?;
         let spec = env.spec().clone();
-        spec.validate()?;
-        if layout.spec() != &spec {
-            return Err(CoreError::InvalidConfig {
-                key: "layout".into(),
-                reason: "the observation layout was built for another environment spec".into(),
-            });
-        }
-        if agent.num_agents() != spec.agents.len() {
-            return Err(CoreError::Dimension {
-                what: "learner agents",
-                expected: spec.agents.len(),
-                found: agent.num_agents(),
-            });
-        }
         let gamma = config.gamma_for(spec.episode_len);
         let rewards = config.shadow.agent_rewards(&spec)?;
-        let q_bounds = rewards
-            .step_bounds(spec.reward_range)
-            .into_iter()
-            .map(|(lo, hi)| ((lo / (1.0 - gamma)) as f32, (hi / (1.0 - gamma)) as f32))
-            .collect();
         let occupancy = config.shadow.occupancy(&spec, gamma)?;
-        let replay = ReplayBuffer::new(&spec, config.buffer_size)?;
-        let state = TrainerState {
-            epoch: 0,
-            rng: ChaCha8Rng::seed_from_u64(config.seed),
-            env_steps: 0,
-            updates: 0,
-            occupancy,
-            history: Vec::new(),
-        };
-        Ok(Self { config, env, agent, layout, replay, rewards, q_bounds, state })
+        let collector = Collector::new(env, layout, occupancy, rewards)?;
+        Self::with_collector(config, collector, algorithm)
+    }
+}
+
+impl<E: Env, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Trainer<E, A, O, S> {
+    /// A trainer of `algorithm` with a collector of your own (your own
+    /// [`OccupancyEstimator`] and [`ShadowReward`]). `config.shadow` is not
+    /// used to build anything here: the collector carries the estimator and rewards.
+    ///
+    /// # Errors
+    /// [`CoreError`] when the config is invalid or the algorithm has another number of agents.
+    pub fn with_collector(
+        config: TrainerConfig,
+        collector: Collector<E, O, S>,
+        algorithm: A,
+    ) -> Result<Self, CoreError> {
+        config.validate()?;
+        let agents = collector.env().spec().agents.len();
+        if algorithm.num_agents() != agents {
+            return Err(CoreError::Dimension {
+                what: "algorithm agents",
+                expected: agents,
+                found: algorithm.num_agents(),
+            });
+        }
+        let state =
+            TrainerState { epoch: 0, rng: ChaCha8Rng::seed_from_u64(config.seed), updates: 0, history: Vec::new() };
+        Ok(Self { config, collector, algorithm, state })
     }
 
     /// The configuration.
@@ -256,20 +279,38 @@ impl<E: Env, A: Agent> Trainer<E, A> {
         &self.config
     }
 
-    /// The learner.
+    /// The algorithm.
     #[must_use]
-    pub fn agent(&self) -> &A {
-        &self.agent
+    pub fn algorithm(&self) -> &A {
+        &self.algorithm
     }
 
-    /// The learner, mutably.
-    pub fn agent_mut(&mut self) -> &mut A {
-        &mut self.agent
+    /// The algorithm, mutably.
+    pub fn algorithm_mut(&mut self) -> &mut A {
+        &mut self.algorithm
+    }
+
+    /// The collector (environment, layout, occupancy estimate, rewards).
+    #[must_use]
+    pub fn collector(&self) -> &Collector<E, O, S> {
+        &self.collector
+    }
+
+    /// The environment.
+    #[must_use]
+    pub fn env(&self) -> &E {
+        self.collector.env()
     }
 
     /// The environment, mutably.
     pub fn env_mut(&mut self) -> &mut E {
-        &mut self.env
+        self.collector.env_mut()
+    }
+
+    /// How actor inputs are assembled.
+    #[must_use]
+    pub fn layout(&self) -> &ObservationLayout {
+        self.collector.layout()
     }
 
     /// The statistics of every finished epoch.
@@ -287,103 +328,45 @@ impl<E: Env, A: Agent> Trainer<E, A> {
     /// The current occupancy estimate, one value per feature.
     #[must_use]
     pub fn occupancy(&self) -> &[f64] {
-        self.state.occupancy.estimate()
+        self.collector.occupancy().estimate()
     }
 
-    /// The per-agent bounds of the Q targets (`clip_return`).
-    #[must_use]
-    pub fn q_bounds(&self) -> &[(f32, f32)] {
-        &self.q_bounds
-    }
-
-    /// How actor inputs are assembled.
-    #[must_use]
-    pub fn layout(&self) -> &ObservationLayout {
-        &self.layout
-    }
-
-    /// The environment.
-    #[must_use]
-    pub fn env(&self) -> &E {
-        &self.env
-    }
-
-    /// The replay buffer.
-    #[must_use]
-    pub fn replay(&self) -> &ReplayBuffer {
-        &self.replay
-    }
-
-    /// Runs one episode from `seed`; with `explore`, exploration noise and random
-    /// actions are drawn from the trainer's RNG.
-    pub fn rollout(&mut self, seed: u64, explore: bool) -> Result<Episode, CoreError> {
-        self.rollout_with(seed, explore, &mut |_, _| {})
+    /// Runs one episode from `seed` with the algorithm's policy in `mode`.
+    ///
+    /// # Errors
+    /// Errors of the environment or the policy.
+    pub fn rollout(&mut self, seed: u64, mode: ActMode) -> Result<Episode, CoreError> {
+        self.rollout_with(seed, mode, &mut |_, _| {})
     }
 
     /// As [`Trainer::rollout`], calling `on_step(env, outcome)` after every step
     /// (e.g. to read contacts for the grasp metrics).
+    ///
+    /// # Errors
+    /// Errors of the environment or the policy.
     pub fn rollout_with(
         &mut self,
         seed: u64,
-        explore: bool,
+        mode: ActMode,
         on_step: &mut dyn FnMut(&E, &StepOutcome),
     ) -> Result<Episode, CoreError> {
-        let spec = self.env.spec().clone();
-        let mut obs = self.env.reset(seed).map_err(env_err)?;
-        obs.validate(&spec)?;
-        let mut prev = JointAction::zeros(spec.action_dim);
-        let mut episode = Episode {
-            observations: Vec::with_capacity(spec.episode_len + 1),
-            actions: Vec::with_capacity(spec.episode_len),
-            infos: Vec::with_capacity(spec.episode_len),
-        };
-        for _ in 0..spec.episode_len {
-            let inputs = self.layout.actor_inputs(&obs, &prev);
-            let actions = self.agent.act(&inputs, 1).map_err(agent_err)?;
-            let mut joint = JointAction::from_agents(&spec.agents, &actions)?;
-            if explore {
-                let rng = &mut self.state.rng;
-                for v in &mut joint.0 {
-                    *v = (*v + self.config.noise_eps * gaussian(rng)).clamp(-1.0, 1.0);
-                }
-                if rng.random::<f32>() < self.config.random_eps {
-                    for v in &mut joint.0 {
-                        *v = rng.random_range(-1.0..=1.0);
-                    }
-                }
-            }
-            let outcome = self.env.step(&joint).map_err(env_err)?;
-            outcome.observation.validate(&spec)?;
-            on_step(&self.env, &outcome);
-            if outcome.info.features.len() != spec.features.len() {
-                return Err(CoreError::Dimension {
-                    what: "step features",
-                    expected: spec.features.len(),
-                    found: outcome.info.features.len(),
-                });
-            }
-            episode.observations.push(obs);
-            episode.actions.push(joint.clone());
-            episode.infos.push(outcome.info);
-            obs = outcome.observation;
-            prev = joint;
-        }
-        episode.observations.push(obs);
-        self.state.env_steps += spec.episode_len as u64;
-        Ok(episode)
+        self.collector.rollout(&mut self.algorithm, seed, mode, on_step)
     }
 
-    /// Evaluates the deterministic policy on one episode per seed. Success is
-    /// a final goal distance below `threshold`, or with `None` the environment's
-    /// own success flag at the last step (its training threshold).
+    /// Evaluates the policy ([`ActMode::Evaluate`]) on one episode per seed.
+    /// Success is a final goal distance below `threshold`, or with `None` the
+    /// environment's own success flag at the last step (its training threshold).
+    ///
+    /// # Errors
+    /// Errors of the environment or the policy.
     pub fn evaluate(&mut self, seeds: &[u64], threshold: Option<f32>) -> Result<EvalSummary, CoreError> {
-        let k = self.env.spec().features.len();
+        let k = self.env().spec().features.len();
         let mut summary = EvalSummary { episodes: seeds.len(), feature_rates: vec![0.0; k], ..EvalSummary::default() };
         let (mut successes, mut drops, mut steps) = (0usize, 0usize, 0usize);
         for &seed in seeds {
-            let ep = self.rollout(seed, false)?;
-            let last = ep.observations.last().expect("an episode has T + 1 >= 2 observations");
-            let d = self.env.goal_distance(&last.achieved_goal, &last.desired_goal);
+            let ep = self.rollout(seed, ActMode::Evaluate)?;
+            let Some(last) = ep.observations.last() else { continue };
+            let d = self.env().goal_distance(&last.achieved_goal, &last.desired_goal);
             let success = match threshold {
                 Some(t) => d < t,
                 None => ep.infos.last().is_some_and(|i| i.is_success),
@@ -409,89 +392,67 @@ impl<E: Env, A: Agent> Trainer<E, A> {
             .collect()
     }
 
-    /// Runs one epoch and returns (and records) its statistics.
-    pub fn run_epoch(&mut self) -> Result<EpochStats, CoreError> {
-        let start = Instant::now();
-        let spec = self.env.spec().clone();
-        let n_agents = spec.agents.len();
-        let k = spec.features.len();
-        let steps_before = self.state.env_steps;
-        let mut update_time = 0.0f64;
-        let mut updates = 0u64;
-        let mut returns = vec![0.0f64; n_agents];
-        let mut train_features = vec![0.0f64; k];
-        let (mut train_success, mut train_episodes, mut train_steps) = (0usize, 0usize, 0usize);
-        let mut losses = LearnStats { critic_loss: vec![0.0; n_agents], actor_loss: vec![0.0; n_agents] };
-        let mut reward_buf = vec![0.0f32; n_agents];
-        for _ in 0..self.config.cycles {
-            for _ in 0..self.config.episodes_per_cycle {
-                let seed = self.state.rng.random::<u64>();
-                let ep = self.rollout(seed, true)?;
-                self.replay.store(&ep)?;
-                self.state.occupancy.observe_episode(&ep.features())?;
-                let lambda = self.state.occupancy.estimate();
-                for (t, info) in ep.infos.iter().enumerate() {
-                    let o = &ep.observations[t + 1];
-                    let task = self.env.goal_reward(&o.achieved_goal, &o.desired_goal);
-                    self.rewards.compute(task, &info.features, lambda, &mut reward_buf);
-                    returns.iter_mut().zip(&reward_buf).for_each(|(r, v)| *r += f64::from(*v));
-                }
-                accumulate_features(&ep.infos, &mut train_features);
-                train_success += usize::from(ep.infos.last().is_some_and(|i| i.is_success));
-                train_episodes += 1;
-                train_steps += ep.infos.len();
-            }
-            let t0 = Instant::now();
-            for _ in 0..self.config.batches {
-                let Trainer { env, replay, rewards, layout, state, config, q_bounds, agent, .. } = &mut *self;
-                let lambda = state.occupancy.estimate();
-                let mut batch = replay.sample(
-                    config.batch_size,
-                    &config.her,
-                    layout,
-                    &mut state.rng,
-                    &|a, d| env.goal_reward(a, d),
-                    &|task, phi, out| rewards.compute(task, phi, lambda, out),
-                )?;
-                batch.q_bounds.clone_from(q_bounds);
-                let stats = agent.learn(&batch).map_err(agent_err)?;
-                for (acc, v) in losses.critic_loss.iter_mut().zip(&stats.critic_loss) {
-                    *acc += v;
-                }
-                for (acc, v) in losses.actor_loss.iter_mut().zip(&stats.actor_loss) {
-                    *acc += v;
-                }
-                updates += 1;
-            }
-            if self.config.batches > 0 {
-                self.agent.update_targets().map_err(agent_err)?;
-            }
-            update_time += t0.elapsed().as_secs_f64();
+    /// Collect and store: one cycle's exploring rollouts, each stored by the
+    /// algorithm and observed by the occupancy estimator.
+    fn collect(&mut self, tally: &mut EpochTally) -> Result<(), CoreError> {
+        for _ in 0..self.config.episodes_per_cycle {
+            let seed = self.state.rng.random::<u64>();
+            let episode = self.rollout(seed, ActMode::Explore)?;
+            self.algorithm.store(&episode).map_err(algo_err)?;
+            let returns = self.collector.observe(&episode)?;
+            tally.add_episode(&episode, &returns);
         }
-        self.state.updates += updates;
-        let epoch = self.state.epoch;
-        let seeds = self.eval_seeds(epoch);
-        let eval = self.evaluate(&seeds, None)?;
-        let seconds = start.elapsed().as_secs_f64();
-        let env_steps = self.state.env_steps - steps_before;
-        let per_update = |v: &Vec<f32>| v.iter().map(|x| f64::from(*x) / updates.max(1) as f64).collect();
-        let stats = EpochStats {
-            epoch,
+        Ok(())
+    }
+
+    /// Update (and share): the algorithm's updates of one cycle.
+    fn update(&mut self, tally: &mut EpochTally) -> Result<(), CoreError> {
+        let start = Instant::now();
+        let stats = self.algorithm.update(&self.collector).map_err(algo_err)?;
+        tally.add_update(&stats, start.elapsed().as_secs_f64());
+        Ok(())
+    }
+
+    /// The statistics of a finished epoch.
+    fn epoch_stats(&self, tally: &EpochTally, eval: EvalSummary, seconds: f64, env_steps: u64) -> EpochStats {
+        let per = |v: &[f64], n: usize| v.iter().map(|x| x / n.max(1) as f64).collect();
+        EpochStats {
+            epoch: self.state.epoch,
             success_rate: eval.success_rate,
-            train_success_rate: train_success as f64 / train_episodes.max(1) as f64,
+            train_success_rate: tally.successes as f64 / tally.episodes.max(1) as f64,
             drop_rate: eval.drop_rate,
             eval_feature_rates: eval.feature_rates,
-            train_feature_rates: train_features.iter().map(|v| v / train_steps.max(1) as f64).collect(),
-            returns: returns.iter().map(|r| r / train_episodes.max(1) as f64).collect(),
-            occupancy: self.state.occupancy.estimate().to_vec(),
-            critic_loss: per_update(&losses.critic_loss),
-            actor_loss: per_update(&losses.actor_loss),
-            env_steps: self.state.env_steps,
+            train_feature_rates: per(&tally.features, tally.steps),
+            returns: per(&tally.returns, tally.episodes),
+            occupancy: self.occupancy().to_vec(),
+            critic_loss: per(&tally.critic_loss, tally.loss_cycles),
+            actor_loss: per(&tally.actor_loss, tally.loss_cycles),
+            env_steps: self.collector.env_steps(),
             updates: self.state.updates,
-            env_steps_per_sec: env_steps as f64 / (seconds - update_time).max(1e-9),
-            updates_per_sec: updates as f64 / update_time.max(1e-9),
+            env_steps_per_sec: env_steps as f64 / (seconds - tally.update_seconds).max(1e-9),
+            updates_per_sec: tally.updates as f64 / tally.update_seconds.max(1e-9),
             seconds,
-        };
+        }
+    }
+
+    /// Runs one epoch (cycles of collect, store, update and share, then evaluate)
+    /// and returns (and records) its statistics.
+    ///
+    /// # Errors
+    /// Errors of the environment, the policy or the algorithm's updates.
+    pub fn run_epoch(&mut self) -> Result<EpochStats, CoreError> {
+        let start = Instant::now();
+        let spec = self.env().spec();
+        let mut tally = EpochTally::new(spec.agents.len(), spec.features.len());
+        let steps_before = self.collector.env_steps();
+        for _ in 0..self.config.cycles {
+            self.collect(&mut tally)?;
+            self.update(&mut tally)?;
+        }
+        self.state.updates += tally.updates;
+        let eval = self.evaluate(&self.eval_seeds(self.state.epoch), None)?;
+        let stats =
+            self.epoch_stats(&tally, eval, start.elapsed().as_secs_f64(), self.collector.env_steps() - steps_before);
         self.state.history.push(stats.clone());
         self.state.epoch += 1;
         Ok(stats)
@@ -499,6 +460,9 @@ impl<E: Env, A: Agent> Trainer<E, A> {
 
     /// Runs the remaining epochs up to `config.epochs`, calling `on_epoch` after
     /// each (e.g. to log and write a checkpoint).
+    ///
+    /// # Errors
+    /// The first error of an epoch or of `on_epoch`.
     pub fn train(
         &mut self,
         mut on_epoch: impl FnMut(&mut Self, &EpochStats) -> Result<(), CoreError>,
@@ -520,7 +484,7 @@ fn accumulate_features(infos: &[StepInfo], acc: &mut [f64]) {
 }
 
 const MAGIC: &[u8; 8] = b"FMSRCKPT";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 
 /// FNV-1a, 64 bit: a checksum that detects corrupted checkpoints.
 fn fnv1a(bytes: &[u8]) -> u64 {
@@ -528,10 +492,11 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 }
 
 #[derive(Serialize, Deserialize)]
-struct CheckpointMeta {
+struct CheckpointMeta<O> {
     config: TrainerConfig,
     state: TrainerState,
-    has_replay: bool,
+    occupancy: O,
+    env_steps: u64,
 }
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same folder,
@@ -554,20 +519,32 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CoreError> {
     Ok(())
 }
 
-impl<E: Env, A: SaveState> Trainer<E, A> {
+impl<E, A, O, S> Trainer<E, A, O, S>
+where
+    E: Env,
+    A: Algorithm,
+    O: OccupancyEstimator + Serialize + DeserializeOwned,
+    S: ShadowReward,
+{
     /// Writes a checkpoint of everything training needs to continue: the
-    /// learner's state, the trainer's RNG, counters, occupancy estimate and
-    /// history, and (if `include_replay`) the replay buffer. With the replay
-    /// buffer, resuming continues exactly as an uninterrupted run.
-    pub fn save_checkpoint(&self, path: &Path, include_replay: bool) -> Result<(), CoreError> {
-        let meta =
-            CheckpointMeta { config: self.config.clone(), state: self.state.clone(), has_replay: include_replay };
+    /// algorithm's state (with its replay storage if `include_storage`), the
+    /// trainer's RNG, counters and history, and the occupancy estimate. With the
+    /// storage, resuming continues exactly as an uninterrupted run.
+    ///
+    /// # Errors
+    /// I/O errors, and errors of the algorithm's `save_state`.
+    pub fn save_checkpoint(&self, path: &Path, include_storage: bool) -> Result<(), CoreError> {
+        let meta = CheckpointMeta {
+            config: self.config.clone(),
+            state: self.state.clone(),
+            occupancy: self.collector.occupancy(),
+            env_steps: self.collector.env_steps(),
+        };
         let meta =
             serde_json::to_vec(&meta).map_err(|e| CoreError::Corrupt { path: path.into(), reason: e.to_string() })?;
-        let agent = self.agent.save_state().map_err(agent_err)?;
-        let replay = if include_replay { self.replay.to_bytes() } else { Vec::new() };
-        let mut body = Vec::with_capacity(meta.len() + agent.len() + replay.len() + 24);
-        for section in [&meta, &agent, &replay] {
+        let algorithm = self.algorithm.save_state(include_storage).map_err(algo_err)?;
+        let mut body = Vec::with_capacity(meta.len() + algorithm.len() + 16);
+        for section in [&meta, &algorithm] {
             body.extend_from_slice(&(section.len() as u64).to_le_bytes());
             body.extend_from_slice(section);
         }
@@ -583,6 +560,10 @@ impl<E: Env, A: SaveState> Trainer<E, A> {
     /// checkpoint must come from the same configuration, except `epochs`, which
     /// may be raised to train longer. A corrupted, truncated or mismatched file
     /// is an error naming the problem.
+    ///
+    /// # Errors
+    /// [`CoreError::Io`], [`CoreError::Corrupt`], [`CoreError::InvalidConfig`]
+    /// (another configuration) or the algorithm's error (another shape).
     pub fn load_checkpoint(&mut self, path: &Path) -> Result<(), CoreError> {
         let corrupt = |reason: String| CoreError::Corrupt { path: path.into(), reason };
         let mut bytes = Vec::new();
@@ -592,30 +573,26 @@ impl<E: Env, A: SaveState> Trainer<E, A> {
         if bytes.len() < 20 || &bytes[..8] != MAGIC {
             return Err(corrupt("not an fmsr checkpoint (bad magic)".into()));
         }
-        let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+        let version = u32::from_le_bytes(bytes[8..12].try_into().map_err(|_| corrupt("short header".into()))?);
         if version != VERSION {
             return Err(corrupt(format!("checkpoint version {version}, this build reads {VERSION}")));
         }
-        let sum = u64::from_le_bytes(bytes[12..20].try_into().expect("8 bytes"));
+        let sum = u64::from_le_bytes(bytes[12..20].try_into().map_err(|_| corrupt("short header".into()))?);
         let body = &bytes[20..];
         if fnv1a(body) != sum {
             return Err(corrupt("checksum mismatch (truncated or corrupted file)".into()));
         }
-        let mut sections = Vec::with_capacity(3);
+        let mut sections = Vec::with_capacity(2);
         let mut rest = body;
-        for _ in 0..3 {
-            if rest.len() < 8 {
-                return Err(corrupt("truncated section header".into()));
-            }
-            let len = u64::from_le_bytes(rest[..8].try_into().expect("8 bytes")) as usize;
-            rest = &rest[8..];
-            if rest.len() < len {
-                return Err(corrupt("truncated section".into()));
-            }
-            sections.push(&rest[..len]);
-            rest = &rest[len..];
+        for _ in 0..2 {
+            let (len, tail) = rest.split_at_checked(8).ok_or_else(|| corrupt("truncated section header".into()))?;
+            let len = u64::from_le_bytes(len.try_into().map_err(|_| corrupt("short length".into()))?);
+            let len = usize::try_from(len).map_err(|_| corrupt("section length overflows".into()))?;
+            let (section, tail) = tail.split_at_checked(len).ok_or_else(|| corrupt("truncated section".into()))?;
+            sections.push(section);
+            rest = tail;
         }
-        let meta: CheckpointMeta = serde_json::from_slice(sections[0]).map_err(|e| corrupt(e.to_string()))?;
+        let meta: CheckpointMeta<O> = serde_json::from_slice(sections[0]).map_err(|e| corrupt(e.to_string()))?;
         let mut expected = self.config.clone();
         expected.epochs = meta.config.epochs;
         if meta.config != expected {
@@ -624,22 +601,11 @@ impl<E: Env, A: SaveState> Trainer<E, A> {
                 reason: format!("{} was written with a different configuration", path.display()),
             });
         }
-        if meta.state.occupancy.estimate().len() != self.env.spec().features.len() {
+        if meta.occupancy.estimate().len() != self.env().spec().features.len() {
             return Err(corrupt("occupancy has a different number of features".into()));
         }
-        let replay = if meta.has_replay {
-            let r = ReplayBuffer::from_bytes(sections[2]).map_err(|e| corrupt(format!("replay buffer: {e}")))?;
-            if !r.is_compatible(self.env.spec()) {
-                return Err(corrupt("replay buffer of another environment spec".into()));
-            }
-            Some(r)
-        } else {
-            None
-        };
-        self.agent.load_state(sections[1]).map_err(agent_err)?;
-        if let Some(r) = replay {
-            self.replay = r;
-        }
+        self.algorithm.load_state(sections[1]).map_err(algo_err)?;
+        self.collector.restore(meta.occupancy, meta.env_steps);
         self.state = meta.state;
         Ok(())
     }

@@ -6,10 +6,10 @@
 
 use std::time::Instant;
 
-use fmsr_core::Agent;
 use fmsr_core::agent::{Batch, ObservationLayout};
+use fmsr_core::replay::ReplayConfig;
 use fmsr_core::spec::{AgentSpec, EnvSpec};
-use fmsr_nn::{DdpgConfig, DdpgLearner};
+use fmsr_nn::{LearnerParts, Maddpg, MaddpgConfig, NetworkConfig};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -50,16 +50,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         task_rewards: v(n),
         features: vec![],
         rewards: (0..6).map(|_| v(n)).collect(),
-        q_bounds: vec![(-100.0, 0.0); 6],
     };
     for threads in [1, 2] {
-        let mut learner = DdpgLearner::new(layout.clone(), DdpgConfig::new().with_threads(threads), None)?;
+        let net = NetworkConfig::new().with_threads(threads);
+        let parts = LearnerParts::new(layout.clone(), net, ReplayConfig::default(), 0.99);
+        let mut learner = Maddpg::new(parts, MaddpgConfig::new())?;
+        let bounds = vec![(-100.0, 0.0); 6];
         for _ in 0..3 {
-            learner.learn(&batch)?;
+            learner.learn_batch(&batch, &bounds)?;
         }
         let start = Instant::now();
         for _ in 0..iters {
-            learner.learn(&batch)?;
+            learner.learn_batch(&batch, &bounds)?;
         }
         let rate = iters as f64 / start.elapsed().as_secs_f64();
         println!("threads={threads}: {rate:.2} joint updates/s ({:.1} ms each)", 1e3 / rate);

@@ -1,23 +1,46 @@
-//! The hyperparameters of the DDPG learner.
+//! The hyperparameters: the networks and optimiser every algorithm shares
+//! ([`NetworkConfig`]) and each algorithm's own ([`MaddpgConfig`],
+//! [`Matd3Config`], [`MasacConfig`]). The discount is not here: it has one
+//! owner, the trainer (`trainer.gamma`), and is passed to the learners.
 
 use burn::config::Config;
 
 use crate::error::NnError;
 
-/// Hyperparameters of [`crate::DdpgLearner`]; the defaults are those of HER
-/// baselines and DESIGN.md 3.10 (3 x 256 hidden, learning rates 1e-3, polyak
-/// 0.95, action L2 1.0, gamma 1 - 1/T with T = 100, normalised inputs clipped
-/// to +-5).
+fn bad<T>(key: &'static str, reason: &str) -> Result<T, NnError> {
+    Err(NnError::InvalidConfig { key, reason: reason.to_owned() })
+}
+
+fn check_all(checks: &[(&'static str, bool, &str)]) -> Result<(), NnError> {
+    for &(key, ok, reason) in checks {
+        if !ok {
+            return bad(key, reason);
+        }
+    }
+    Ok(())
+}
+
+fn in_unit(v: f64) -> bool {
+    v.is_finite() && (0.0..=1.0).contains(&v)
+}
+
+fn nonneg(v: f64) -> bool {
+    v.is_finite() && v >= 0.0
+}
+
+/// The networks, optimisers and input normalisers of every agent; defaults
+/// are HER baselines' (DESIGN.md 3.10): 3 x 256 hidden, Adam with learning
+/// rates 1e-3, inputs normalised and clipped to +-5.
 ///
 /// ```
-/// use fmsr_nn::DdpgConfig;
-/// let config = DdpgConfig::new().with_hidden(64).with_seed(7);
+/// use fmsr_nn::NetworkConfig;
+/// let config = NetworkConfig::new().with_hidden(64).with_seed(7);
 /// assert_eq!((config.hidden, config.layers, config.seed), (64, 3, 7));
 /// assert!(config.validate().is_ok());
-/// assert!(DdpgConfig::new().with_polyak(1.5).validate().is_err());
+/// assert!(NetworkConfig::new().with_layers(0).validate().is_err());
 /// ```
 #[derive(Config, Debug, PartialEq)]
-pub struct DdpgConfig {
+pub struct NetworkConfig {
     /// Width of every hidden layer.
     #[config(default = 256)]
     pub hidden: usize,
@@ -32,31 +55,22 @@ pub struct DdpgConfig {
     /// Adam learning rate of the critics.
     #[config(default = 1e-3)]
     pub lr_critic: f64,
-    /// Polyak coefficient of the target networks: `theta' <- polyak * theta' + (1 - polyak) * theta`.
-    #[config(default = 0.95)]
-    pub polyak: f64,
-    /// Weight of the action L2 penalty `mean(mu(s)^2)` in the actor loss.
-    #[config(default = 1.0)]
-    pub action_l2: f64,
-    /// Discount factor of the critic target.
-    #[config(default = 0.99)]
-    pub gamma: f64,
-    /// Normalised inputs are clipped to `[-clip_obs, clip_obs]`.
-    #[config(default = 5.0)]
-    pub clip_obs: f64,
-    /// Smallest standard deviation of the normalisers: `std = max(sqrt(var), norm_eps)`.
-    #[config(default = 0.01)]
-    pub norm_eps: f64,
     /// Adam's `beta_1`.
     #[config(default = 0.9)]
     pub adam_beta1: f64,
     /// Adam's `beta_2`.
     #[config(default = 0.999)]
     pub adam_beta2: f64,
-    /// Adam's `epsilon` (1e-8 as TensorFlow and HER baselines' MPI Adam).
+    /// Adam's `epsilon` (1e-8 as TensorFlow and HER baselines).
     #[config(default = 1e-8)]
     pub adam_epsilon: f64,
-    /// Seed of the weight initialisation.
+    /// Normalised inputs are clipped to `[-clip_obs, clip_obs]`.
+    #[config(default = 5.0)]
+    pub clip_obs: f64,
+    /// Smallest standard deviation of the normalisers: `std = max(sqrt(var), norm_eps)`.
+    #[config(default = 0.01)]
+    pub norm_eps: f64,
+    /// Seed of the weight initialisation, exploration noise and replay sampling.
     #[config(default = 0)]
     pub seed: u64,
     /// OS threads over which the agents' updates are split (1 = sequential).
@@ -65,41 +79,175 @@ pub struct DdpgConfig {
     pub threads: usize,
 }
 
-impl DdpgConfig {
+impl NetworkConfig {
     /// Checks every value.
     ///
     /// # Errors
     /// [`NnError::InvalidConfig`] naming the first impossible value.
     pub fn validate(&self) -> Result<(), NnError> {
-        let bad = |key, reason: &str| Err(NnError::InvalidConfig { key, reason: reason.to_owned() });
-        if self.hidden == 0 {
-            return bad("hidden", "must be at least 1");
-        }
-        if self.layers == 0 {
-            return bad("layers", "must be at least 1");
-        }
-        if self.threads == 0 {
-            return bad("threads", "must be at least 1");
-        }
-        let in_unit = |v: f64| v.is_finite() && (0.0..=1.0).contains(&v);
-        let nonneg = |v: f64| v.is_finite() && v >= 0.0;
-        let checks: [(&'static str, bool, &str); 10] = [
-            ("lr_actor", nonneg(self.lr_actor), "must be finite and >= 0"),
-            ("lr_critic", nonneg(self.lr_critic), "must be finite and >= 0"),
-            ("polyak", in_unit(self.polyak), "must lie in [0, 1]"),
-            ("action_l2", nonneg(self.action_l2), "must be finite and >= 0"),
-            ("gamma", in_unit(self.gamma), "must lie in [0, 1]"),
-            ("clip_obs", self.clip_obs.is_finite() && self.clip_obs > 0.0, "must be finite and > 0"),
-            ("norm_eps", self.norm_eps.is_finite() && self.norm_eps > 0.0, "must be finite and > 0"),
-            ("adam_beta1", self.adam_beta1.is_finite() && (0.0..1.0).contains(&self.adam_beta1), "must lie in [0, 1)"),
-            ("adam_beta2", self.adam_beta2.is_finite() && (0.0..1.0).contains(&self.adam_beta2), "must lie in [0, 1)"),
-            ("adam_epsilon", self.adam_epsilon.is_finite() && self.adam_epsilon > 0.0, "must be finite and > 0"),
-        ];
-        for (key, ok, reason) in checks {
-            if !ok {
-                return bad(key, reason);
-            }
-        }
-        Ok(())
+        check_all(&[
+            ("networks.hidden", self.hidden > 0, "must be at least 1"),
+            ("networks.layers", self.layers > 0, "must be at least 1"),
+            ("networks.threads", self.threads > 0, "must be at least 1"),
+            ("networks.lr_actor", nonneg(self.lr_actor), "must be finite and >= 0"),
+            ("networks.lr_critic", nonneg(self.lr_critic), "must be finite and >= 0"),
+            ("networks.clip_obs", self.clip_obs.is_finite() && self.clip_obs > 0.0, "must be finite and > 0"),
+            ("networks.norm_eps", self.norm_eps.is_finite() && self.norm_eps > 0.0, "must be finite and > 0"),
+            ("networks.adam_beta1", (0.0..1.0).contains(&self.adam_beta1), "must lie in [0, 1)"),
+            ("networks.adam_beta2", (0.0..1.0).contains(&self.adam_beta2), "must lie in [0, 1)"),
+            ("networks.adam_epsilon", self.adam_epsilon.is_finite() && self.adam_epsilon > 0.0, "must be > 0"),
+        ])
+    }
+}
+
+/// MADDPG (HER baselines' DDPG per agent): deterministic actors, one critic
+/// each, exploration by Gaussian noise and random joint actions.
+///
+/// ```
+/// use fmsr_nn::MaddpgConfig;
+/// assert!(MaddpgConfig::new().validate().is_ok());
+/// assert!(MaddpgConfig::new().with_polyak(1.5).validate().is_err());
+/// ```
+#[derive(Config, Debug, PartialEq)]
+pub struct MaddpgConfig {
+    /// Polyak coefficient of the target networks, which move once per cycle:
+    /// `theta' <- polyak * theta' + (1 - polyak) * theta` (eq. 9).
+    #[config(default = 0.95)]
+    pub polyak: f64,
+    /// Weight of the action L2 penalty `mean(mu(s)^2)` in the actor loss.
+    #[config(default = 1.0)]
+    pub action_l2: f64,
+    /// Std of the Gaussian exploration noise on actions in `[-1, 1]`.
+    #[config(default = 0.2)]
+    pub noise_eps: f64,
+    /// Probability of a uniformly random joint action while exploring.
+    #[config(default = 0.3)]
+    pub random_eps: f64,
+}
+
+impl MaddpgConfig {
+    /// Checks every value.
+    ///
+    /// # Errors
+    /// [`NnError::InvalidConfig`] naming the first impossible value.
+    pub fn validate(&self) -> Result<(), NnError> {
+        check_all(&[
+            ("maddpg.polyak", in_unit(self.polyak), "must lie in [0, 1]"),
+            ("maddpg.action_l2", nonneg(self.action_l2), "must be finite and >= 0"),
+            ("maddpg.noise_eps", nonneg(self.noise_eps), "must be finite and >= 0"),
+            ("maddpg.random_eps", in_unit(self.random_eps), "must lie in [0, 1]"),
+        ])
+    }
+}
+
+/// MATD3 (TD3 per agent, Fujimoto et al. 2018): twin critics with the
+/// smaller target, target policy smoothing and delayed actor updates.
+///
+/// ```
+/// use fmsr_nn::Matd3Config;
+/// assert_eq!(Matd3Config::new().policy_delay, 2);
+/// assert!(Matd3Config::new().with_policy_delay(0).validate().is_err());
+/// ```
+#[derive(Config, Debug, PartialEq)]
+pub struct Matd3Config {
+    /// Polyak coefficient of the target networks, which move once per cycle.
+    #[config(default = 0.95)]
+    pub polyak: f64,
+    /// Weight of the action L2 penalty in the actor loss.
+    #[config(default = 1.0)]
+    pub action_l2: f64,
+    /// Std of the Gaussian exploration noise.
+    #[config(default = 0.2)]
+    pub noise_eps: f64,
+    /// Probability of a uniformly random joint action while exploring.
+    #[config(default = 0.3)]
+    pub random_eps: f64,
+    /// Std of the smoothing noise on target actions.
+    #[config(default = 0.2)]
+    pub target_noise: f64,
+    /// The smoothing noise is clipped to `[-target_noise_clip, target_noise_clip]`.
+    #[config(default = 0.5)]
+    pub target_noise_clip: f64,
+    /// Actors (and their sharing) update once every `policy_delay` critic updates.
+    #[config(default = 2)]
+    pub policy_delay: usize,
+}
+
+impl Matd3Config {
+    /// Checks every value.
+    ///
+    /// # Errors
+    /// [`NnError::InvalidConfig`] naming the first impossible value.
+    pub fn validate(&self) -> Result<(), NnError> {
+        check_all(&[
+            ("matd3.polyak", in_unit(self.polyak), "must lie in [0, 1]"),
+            ("matd3.action_l2", nonneg(self.action_l2), "must be finite and >= 0"),
+            ("matd3.noise_eps", nonneg(self.noise_eps), "must be finite and >= 0"),
+            ("matd3.random_eps", in_unit(self.random_eps), "must lie in [0, 1]"),
+            ("matd3.target_noise", nonneg(self.target_noise), "must be finite and >= 0"),
+            ("matd3.target_noise_clip", nonneg(self.target_noise_clip), "must be finite and >= 0"),
+            ("matd3.policy_delay", self.policy_delay > 0, "must be at least 1"),
+        ])
+    }
+}
+
+/// MASAC (soft actor-critic per agent, Haarnoja et al. 2018): tanh-Gaussian
+/// actors, twin critics, and an entropy temperature tuned automatically
+/// towards a target entropy.
+///
+/// ```
+/// use fmsr_nn::MasacConfig;
+/// assert!(MasacConfig::new().validate().is_ok());
+/// assert!(MasacConfig::new().with_initial_temperature(0.0).validate().is_err());
+/// ```
+#[derive(Config, Debug, PartialEq)]
+pub struct MasacConfig {
+    /// Polyak coefficient of the target critics, which move once per cycle.
+    #[config(default = 0.95)]
+    pub polyak: f64,
+    /// Initial entropy temperature `alpha_i` of every agent.
+    #[config(default = 0.05)]
+    pub initial_temperature: f64,
+    /// Adam learning rate of `log alpha_i`.
+    #[config(default = 1e-3)]
+    pub lr_temperature: f64,
+    /// Target entropy per action dimension; agent `i`'s target is this times
+    /// its action dimension (the usual `-dim(A_i)` with the default -1).
+    #[config(default = -1.0)]
+    pub target_entropy_per_dim: f64,
+    /// Smallest log standard deviation of the Gaussian.
+    #[config(default = -5.0)]
+    pub log_std_min: f64,
+    /// Largest log standard deviation of the Gaussian.
+    #[config(default = 2.0)]
+    pub log_std_max: f64,
+    /// Probability of a uniformly random joint action while exploring (HER's
+    /// extra exploration; 0 leaves exploration to the policy's entropy).
+    #[config(default = 0.0)]
+    pub random_eps: f64,
+}
+
+impl MasacConfig {
+    /// Checks every value.
+    ///
+    /// # Errors
+    /// [`NnError::InvalidConfig`] naming the first impossible value.
+    pub fn validate(&self) -> Result<(), NnError> {
+        check_all(&[
+            ("masac.polyak", in_unit(self.polyak), "must lie in [0, 1]"),
+            (
+                "masac.initial_temperature",
+                self.initial_temperature.is_finite() && self.initial_temperature > 0.0,
+                "must be finite and > 0",
+            ),
+            ("masac.lr_temperature", nonneg(self.lr_temperature), "must be finite and >= 0"),
+            ("masac.target_entropy_per_dim", self.target_entropy_per_dim.is_finite(), "must be finite"),
+            (
+                "masac.log_std_max",
+                self.log_std_min.is_finite() && self.log_std_max.is_finite() && self.log_std_min < self.log_std_max,
+                "must be finite and above log_std_min",
+            ),
+            ("masac.random_eps", in_unit(self.random_eps), "must lie in [0, 1]"),
+        ])
     }
 }

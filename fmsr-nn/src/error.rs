@@ -42,6 +42,12 @@ pub enum NnError {
         /// Number of agents of the learner.
         agents: usize,
     },
+    /// Storing in or sampling from the replay buffer failed.
+    #[error("replay buffer: {reason}")]
+    Replay {
+        /// What went wrong.
+        reason: String,
+    },
     /// The sharing configuration does not fit the learner.
     #[error("information sharing: {reason}")]
     Sharing {

@@ -137,17 +137,4 @@ impl Normalizer {
             }
         }
     }
-
-    /// The raw statistics `(sum, sumsq, count)`, for saving.
-    pub(crate) fn stats(&self) -> (&[f64], &[f64], f64) {
-        (&self.sum, &self.sumsq, self.count)
-    }
-
-    /// Restores statistics written by [`Normalizer::stats`] (lengths already checked).
-    pub(crate) fn set_stats(&mut self, sum: Vec<f64>, sumsq: Vec<f64>, count: f64) {
-        self.sum = sum;
-        self.sumsq = sumsq;
-        self.count = count;
-        self.recompute();
-    }
 }

@@ -1,233 +1,211 @@
-//! [`SaveState`] for [`DdpgLearner`]: a small self-checking binary format.
+//! The learners' saved state: one serde structure encoded with `postcard`,
+//! behind a magic number and an FNV-1a checksum, so a truncated or corrupted
+//! file is an error, never a panic. `f32`/`f64` values are stored bit for bit,
+//! so a restored learner continues exactly as the saved one would have.
 //!
-//! Layout (little endian): the magic `b"FMSRNN\0\x01"`, a `u64` length and a
-//! JSON header (format version, agent count, network shapes, normaliser
-//! dims), then for every agent its online actor, target actor, actor Adam
-//! (`t`, `m`, `v`), online critic, target critic, critic Adam and actor
-//! normaliser (`sum`, `sumsq`, `count`), then the critic normaliser, each
-//! vector as a `u64` length and its values; last a `u64` FNV-1a hash of
-//! everything before it. `f32`/`f64` values are stored bit for bit, so a
-//! restored learner continues exactly as the saved one would have.
-//!
-//! Hyperparameters are not part of the state: the learner keeps its own
-//! config (a checkpoint is resumed with the run's config).
+//! Networks are stored as flat parameter vectors (the [`crate::NetShape`]
+//! layout), optimiser states as burn's burnpack records, which are keyed by
+//! parameter ids; the learners derive their ids from (agent, network), so a
+//! learner built again from the same config reads its own records back.
 
-use fmsr_core::agent::SaveState;
+use burn::optim::ModuleOptimizer;
+use burn::tensor::Bytes;
+use fmsr_core::replay::ReplayBuffer;
+use rand_chacha::ChaCha8Rng;
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
-use crate::error::NnError;
-use crate::learner::DdpgLearner;
-use crate::net::{FlatAdam, NetShape};
+use crate::error::{NnError, check_values};
+use crate::learner::{AgentNets, Learner};
+use crate::net::{Critic, Critics};
+use crate::normalizer::Normalizer;
 
-const MAGIC: &[u8; 8] = b"FMSRNN\0\x01";
-const FORMAT: u32 = 1;
-
-#[derive(Debug, Serialize, Deserialize, PartialEq)]
-struct Header {
-    format: u32,
-    agents: usize,
-    actor_shapes: Vec<NetShape>,
-    critic_shape: NetShape,
-    actor_norm_dims: Vec<usize>,
-    critic_norm_dim: usize,
-}
+const MAGIC: &[u8; 8] = b"FMSRNN\0\x02";
 
 fn fnv1a(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for &b in bytes {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0100_0000_01b3);
-    }
-    h
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
 }
 
-struct Writer(Vec<u8>);
-
-impl Writer {
-    fn u64(&mut self, v: u64) {
-        self.0.extend_from_slice(&v.to_le_bytes());
-    }
-    fn f32s(&mut self, v: &[f32]) {
-        self.u64(v.len() as u64);
-        for x in v {
-            self.0.extend_from_slice(&x.to_le_bytes());
-        }
-    }
-    fn f64s(&mut self, v: &[f64]) {
-        self.u64(v.len() as u64);
-        for x in v {
-            self.0.extend_from_slice(&x.to_le_bytes());
-        }
-    }
+/// `MAGIC`, the checksum of the body, then the body.
+pub(crate) fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, NnError> {
+    let body = postcard::to_stdvec(value).map_err(|e| NnError::Backend { what: "state", reason: e.to_string() })?;
+    let mut out = Vec::with_capacity(body.len() + 16);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&fnv1a(&body).to_le_bytes());
+    out.extend_from_slice(&body);
+    Ok(out)
 }
 
-struct Reader<'a> {
-    bytes: &'a [u8],
-    at: usize,
+/// The inverse of [`encode`].
+pub(crate) fn decode<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, NnError> {
+    let corrupt = |offset, reason: &str| NnError::CorruptState { offset, reason: reason.into() };
+    if bytes.len() < 16 || &bytes[..8] != MAGIC {
+        return Err(corrupt(0, "not an fmsr-nn learner state (bad magic)"));
+    }
+    let mut sum = [0u8; 8];
+    sum.copy_from_slice(&bytes[8..16]);
+    let body = &bytes[16..];
+    if fnv1a(body) != u64::from_le_bytes(sum) {
+        return Err(corrupt(8, "checksum mismatch (truncated or corrupted state)"));
+    }
+    postcard::from_bytes(body).map_err(|e| corrupt(16, &e.to_string()))
 }
 
-impl Reader<'_> {
-    fn take(&mut self, n: usize) -> Result<&[u8], NnError> {
-        let end = self.at.checked_add(n).filter(|&e| e <= self.bytes.len()).ok_or_else(|| NnError::CorruptState {
-            offset: self.at,
-            reason: format!("truncated: need {n} more bytes, {} left", self.bytes.len() - self.at),
-        })?;
-        let s = &self.bytes[self.at..end];
-        self.at = end;
-        Ok(s)
-    }
-    fn u64(&mut self) -> Result<u64, NnError> {
-        let mut b = [0u8; 8];
-        b.copy_from_slice(self.take(8)?);
-        Ok(u64::from_le_bytes(b))
-    }
-    fn len(&mut self, what: &str, expected: usize) -> Result<usize, NnError> {
-        let found = self.u64()?;
-        if found != expected as u64 {
-            return Err(NnError::StateMismatch {
-                what: format!("length of {what}"),
-                expected: expected.to_string(),
-                found: found.to_string(),
-            });
-        }
-        Ok(expected)
-    }
-    fn f32s(&mut self, what: &str, expected: usize) -> Result<Vec<f32>, NnError> {
-        let n = self.len(what, expected)?;
-        let raw = self.take(n.saturating_mul(4))?;
-        Ok(raw.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
-    }
-    fn f64s(&mut self, what: &str, expected: usize) -> Result<Vec<f64>, NnError> {
-        let n = self.len(what, expected)?;
-        let raw = self.take(n.saturating_mul(8))?;
-        Ok(raw.chunks_exact(8).map(|c| f64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]])).collect())
-    }
-}
-
-impl DdpgLearner {
-    fn header(&self) -> Header {
-        Header {
-            format: FORMAT,
-            agents: self.agents.len(),
-            actor_shapes: self.agents.iter().map(|a| a.actor_shape.clone()).collect(),
-            critic_shape: self.critic_shape.clone(),
-            actor_norm_dims: self.agents.iter().map(|a| a.actor_norm.dim()).collect(),
-            critic_norm_dim: self.critic_norm.dim(),
-        }
-    }
-}
-
-fn write_adam(w: &mut Writer, a: &FlatAdam) {
-    w.u64(a.t);
-    w.f32s(&a.m);
-    w.f32s(&a.v);
-}
-
-fn read_adam(r: &mut Reader<'_>, what: &str, n: usize) -> Result<FlatAdam, NnError> {
-    let t = r.u64()?;
-    let m = r.f32s(&format!("{what} Adam m"), n)?;
-    let v = r.f32s(&format!("{what} Adam v"), n)?;
-    Ok(FlatAdam { t, m, v })
-}
-
-fn mismatch(what: &str, expected: impl std::fmt::Debug, found: impl std::fmt::Debug) -> NnError {
-    NnError::StateMismatch { what: what.to_owned(), expected: format!("{expected:?}"), found: format!("{found:?}") }
-}
-
-impl SaveState for DdpgLearner {
-    fn save_state(&self) -> Result<Vec<u8>, NnError> {
-        let header = serde_json::to_vec(&self.header())
-            .map_err(|e| NnError::Backend { what: "state header", reason: e.to_string() })?;
-        let mut w = Writer(Vec::new());
-        w.0.extend_from_slice(MAGIC);
-        w.u64(header.len() as u64);
-        w.0.extend_from_slice(&header);
-        for a in &self.agents {
-            w.f32s(&a.actor);
-            w.f32s(&a.actor_target);
-            write_adam(&mut w, &a.actor_adam);
-            w.f32s(&a.critic);
-            w.f32s(&a.critic_target);
-            write_adam(&mut w, &a.critic_adam);
-            let (s, q, c) = a.actor_norm.stats();
-            w.f64s(s);
-            w.f64s(q);
-            w.f64s(&[c]);
-        }
-        let (s, q, c) = self.critic_norm.stats();
-        w.f64s(s);
-        w.f64s(q);
-        w.f64s(&[c]);
-        let hash = fnv1a(&w.0);
-        w.u64(hash);
-        Ok(w.0)
+impl Learner {
+    /// The learner's state; `extra` carries the algorithm's own.
+    pub(crate) fn save(&self, algorithm: &str, include_storage: bool, extra: Vec<f64>) -> Result<Vec<u8>, NnError> {
+        let agents = self
+            .agents
+            .iter()
+            .map(|a| {
+                Ok(AgentState {
+                    actor: a.actor.to_flat()?,
+                    actor_target: a.actor_target.to_flat()?,
+                    critics: a.critics.nets.iter().map(Critic::to_flat).collect::<Result<_, _>>()?,
+                    critic_targets: a.critic_targets.nets.iter().map(Critic::to_flat).collect::<Result<_, _>>()?,
+                    actor_optim: optim_bytes(&a.actor_optim)?,
+                    critic_optim: optim_bytes(&a.critic_optim)?,
+                    actor_norm: a.actor_norm.clone(),
+                })
+            })
+            .collect::<Result<Vec<_>, NnError>>()?;
+        let state = LearnerState {
+            format: STATE_FORMAT,
+            algorithm: algorithm.to_owned(),
+            agents,
+            critic_norm: self.critic_norm.clone(),
+            rng: self.rng.clone(),
+            steps: self.steps,
+            replay: include_storage.then(|| self.replay.clone()),
+            extra,
+        };
+        crate::state::encode(&state)
     }
 
-    fn load_state(&mut self, bytes: &[u8]) -> Result<(), NnError> {
-        if bytes.len() < MAGIC.len() + 16 {
-            return Err(NnError::CorruptState { offset: 0, reason: format!("only {} bytes", bytes.len()) });
+    /// Restores a state written by [`Learner::save`]; returns its `extra`.
+    pub(crate) fn load(&mut self, algorithm: &str, bytes: &[u8]) -> Result<Vec<f64>, NnError> {
+        let state: LearnerState = crate::state::decode(bytes)?;
+        let mismatch =
+            |what: &str, expected: String, found: String| NnError::StateMismatch { what: what.into(), expected, found };
+        if state.format != STATE_FORMAT {
+            return Err(mismatch("format", STATE_FORMAT.to_string(), state.format.to_string()));
         }
-        if &bytes[..MAGIC.len()] != MAGIC {
-            return Err(NnError::CorruptState { offset: 0, reason: "not an fmsr-nn learner state (bad magic)".into() });
+        if state.algorithm != algorithm {
+            return Err(mismatch("algorithm", algorithm.into(), state.algorithm));
         }
-        let body_len = bytes.len() - 8;
-        let mut stored = [0u8; 8];
-        stored.copy_from_slice(&bytes[body_len..]);
-        if u64::from_le_bytes(stored) != fnv1a(&bytes[..body_len]) {
-            return Err(NnError::CorruptState { offset: body_len, reason: "checksum mismatch".into() });
+        if state.agents.len() != self.agents.len() {
+            return Err(mismatch("agents", self.agents.len().to_string(), state.agents.len().to_string()));
         }
-        let mut r = Reader { bytes: &bytes[..body_len], at: MAGIC.len() };
-        let header_len = usize::try_from(r.u64()?).unwrap_or(usize::MAX);
-        let header_at = r.at;
-        let header: Header = serde_json::from_slice(r.take(header_len)?)
-            .map_err(|e| NnError::CorruptState { offset: header_at, reason: format!("header: {e}") })?;
-        let mine = self.header();
-        if header.format != FORMAT {
-            return Err(mismatch("format version", FORMAT, header.format));
+        let mut restored = Vec::with_capacity(self.agents.len());
+        for (i, (a, s)) in self.agents.iter().zip(state.agents).enumerate() {
+            restored.push(restore_agent(i, a, s)?);
         }
-        if header.agents != mine.agents {
-            return Err(mismatch("number of agents", mine.agents, header.agents));
+        if let Some(replay) = &state.replay
+            && !replay.is_compatible(self.layout.spec())
+        {
+            return Err(mismatch("replay buffer", "this environment's spec".into(), "another spec".into()));
         }
-        for (i, (m, h)) in mine.actor_shapes.iter().zip(&header.actor_shapes).enumerate() {
-            if m != h {
-                return Err(mismatch(&format!("actor {i} layers"), &m.layers, &h.layers));
-            }
-        }
-        if header.critic_shape != mine.critic_shape {
-            return Err(mismatch("critic layers", &mine.critic_shape.layers, &header.critic_shape.layers));
-        }
-        if header.actor_norm_dims != mine.actor_norm_dims || header.critic_norm_dim != mine.critic_norm_dim {
+        if state.critic_norm.dim() != self.critic_norm.dim() {
             return Err(mismatch(
-                "normaliser dims",
-                (&mine.actor_norm_dims, mine.critic_norm_dim),
-                (&header.actor_norm_dims, header.critic_norm_dim),
+                "critic normaliser",
+                self.critic_norm.dim().to_string(),
+                state.critic_norm.dim().to_string(),
             ));
         }
-        // Read everything before touching the learner, so a failure leaves it unchanged.
-        let mut agents = self.agents.clone();
-        for (i, a) in agents.iter_mut().enumerate() {
-            let (na, nc, nd) = (a.actor.len(), a.critic.len(), a.actor_norm.dim());
-            a.actor = r.f32s(&format!("actor {i}"), na)?;
-            a.actor_target = r.f32s(&format!("target actor {i}"), na)?;
-            a.actor_adam = read_adam(&mut r, &format!("actor {i}"), na)?;
-            a.critic = r.f32s(&format!("critic {i}"), nc)?;
-            a.critic_target = r.f32s(&format!("target critic {i}"), nc)?;
-            a.critic_adam = read_adam(&mut r, &format!("critic {i}"), nc)?;
-            let s = r.f64s(&format!("actor {i} normaliser sum"), nd)?;
-            let q = r.f64s(&format!("actor {i} normaliser sumsq"), nd)?;
-            let c = r.f64s(&format!("actor {i} normaliser count"), 1)?;
-            a.actor_norm.set_stats(s, q, c[0]);
+        self.agents = restored;
+        self.critic_norm = state.critic_norm;
+        self.rng = state.rng;
+        self.steps = state.steps;
+        if let Some(replay) = state.replay {
+            self.replay = replay;
         }
-        let nd = self.critic_norm.dim();
-        let s = r.f64s("critic normaliser sum", nd)?;
-        let q = r.f64s("critic normaliser sumsq", nd)?;
-        let c = r.f64s("critic normaliser count", 1)?;
-        if r.at != body_len {
-            return Err(NnError::CorruptState { offset: r.at, reason: format!("{} trailing bytes", body_len - r.at) });
-        }
-        self.critic_norm.set_stats(s, q, c[0]);
-        self.agents = agents;
-        self.invalidate();
-        Ok(())
+        self.act_cache = None;
+        Ok(state.extra)
+    }
+}
+
+const STATE_FORMAT: u32 = 2;
+
+#[derive(Serialize, Deserialize)]
+struct AgentState {
+    actor: Vec<f32>,
+    actor_target: Vec<f32>,
+    critics: Vec<Vec<f32>>,
+    critic_targets: Vec<Vec<f32>>,
+    actor_optim: Vec<u8>,
+    critic_optim: Vec<u8>,
+    actor_norm: Normalizer,
+}
+
+#[derive(Serialize, Deserialize)]
+struct LearnerState {
+    format: u32,
+    algorithm: String,
+    agents: Vec<AgentState>,
+    critic_norm: Normalizer,
+    rng: ChaCha8Rng,
+    steps: u64,
+    replay: Option<ReplayBuffer>,
+    extra: Vec<f64>,
+}
+
+fn optim_bytes(o: &ModuleOptimizer) -> Result<Vec<u8>, NnError> {
+    o.into_bytes()
+        .map(|b| b.to_vec())
+        .map_err(|e| NnError::Backend { what: "optimizer state", reason: format!("{e:?}") })
+}
+
+fn restore_agent(i: usize, a: &AgentNets, s: AgentState) -> Result<AgentNets, NnError> {
+    let check = |what: String, flat: &[f32], expected: usize| check_values(|| what.clone(), flat, expected);
+    let actor_len = a.actor.shape().num_params();
+    check(format!("agent {i} actor"), &s.actor, actor_len)
+        .and_then(|()| check(format!("agent {i} target actor"), &s.actor_target, actor_len))
+        .map_err(|e| state_mismatch(i, "actor", e))?;
+    if s.critics.len() != a.critics.nets.len() || s.critic_targets.len() != a.critics.nets.len() {
+        return Err(NnError::StateMismatch {
+            what: format!("agent {i} critics"),
+            expected: a.critics.nets.len().to_string(),
+            found: s.critics.len().to_string(),
+        });
+    }
+    let critic_len = a.critics.nets[0].shape().num_params();
+    for (c, t) in s.critics.iter().zip(&s.critic_targets) {
+        check(format!("agent {i} critic"), c, critic_len)
+            .and_then(|()| check(format!("agent {i} target critic"), t, critic_len))
+            .map_err(|e| state_mismatch(i, "critic", e))?;
+    }
+    if s.actor_norm.dim() != a.actor_norm.dim() {
+        return Err(NnError::StateMismatch {
+            what: format!("agent {i} actor normaliser"),
+            expected: a.actor_norm.dim().to_string(),
+            found: s.actor_norm.dim().to_string(),
+        });
+    }
+    let load = |o: &ModuleOptimizer, bytes: Vec<u8>| {
+        o.clone()
+            .from_bytes(Bytes::from_bytes_vec(bytes))
+            .map_err(|e| NnError::CorruptState { offset: 0, reason: format!("agent {i} optimizer: {e:?}") })
+    };
+    Ok(AgentNets {
+        actor: a.actor.with_flat(&s.actor),
+        actor_target: a.actor_target.with_flat(&s.actor_target),
+        critics: Critics { nets: a.critics.nets.iter().zip(&s.critics).map(|(c, f)| c.with_flat(f)).collect() },
+        critic_targets: Critics {
+            nets: a.critic_targets.nets.iter().zip(&s.critic_targets).map(|(c, f)| c.with_flat(f)).collect(),
+        },
+        actor_optim: load(&a.actor_optim, s.actor_optim)?,
+        critic_optim: load(&a.critic_optim, s.critic_optim)?,
+        actor_norm: s.actor_norm,
+    })
+}
+
+fn state_mismatch(i: usize, what: &str, e: NnError) -> NnError {
+    match e {
+        NnError::Dimension { expected, found, .. } => NnError::StateMismatch {
+            what: format!("agent {i} {what} parameters"),
+            expected: expected.to_string(),
+            found: found.to_string(),
+        },
+        other => other,
     }
 }

@@ -1,18 +1,17 @@
-//! Guards the worker seam: every flattened gradient goes through
+//! Guards the worker seam: every gradient goes through
 //! `Communicator::all_reduce_mean` before the optimiser step (as HER's MPI
-//! Adam), so a communicator that averages in zeros from a silent worker
-//! halves every Adam input, and one that zeroes them freezes the networks.
+//! Adam), so a communicator that zeroes them freezes the networks, and every
+//! parameter's gradient and every normaliser update is reduced.
 
 mod common;
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use fmsr_core::Agent;
 use fmsr_core::agent::Communicator;
 use fmsr_nn::prelude::*;
 
-/// Two workers, the other one contributing zeros (or, with `zero`, everything zeroed).
+/// Two workers; with `zero` the other one wipes everything out.
 #[derive(Debug, Default)]
 struct Fake {
     zero: bool,
@@ -23,6 +22,7 @@ impl Communicator for Fake {
     fn workers(&self) -> usize {
         2
     }
+
     fn all_reduce_mean(&self, values: &mut [f32]) {
         self.calls.fetch_add(1, Ordering::Relaxed);
         for v in values {
@@ -31,29 +31,38 @@ impl Communicator for Fake {
     }
 }
 
+fn learner(comm: Fake) -> (fmsr_core::agent::ObservationLayout, Maddpg) {
+    let layout = common::layout(&[2, 1, 1], 5, 2);
+    let net = NetworkConfig::new().with_hidden(16).with_layers(2).with_seed(1);
+    let parts = common::parts(&layout, net, 0.9).with_communicator(Box::new(comm));
+    (layout, Maddpg::new(parts, MaddpgConfig::new()).unwrap())
+}
+
 #[test]
 fn gradients_pass_through_the_communicator() {
-    let layout = common::layout(&[2, 1, 1], 5, 2);
-    let config = DdpgConfig::new().with_hidden(16).with_seed(1);
-    let frozen = Box::new(Fake { zero: true, ..Fake::default() });
-    let mut l = DdpgLearner::with_parts(layout.clone(), config, None, frozen, burn::tensor::Device::flex()).unwrap();
-    let before: Vec<Vec<f32>> = (0..3).map(|i| l.actor_params(i).unwrap().to_vec()).collect();
-    let before_c: Vec<Vec<f32>> = (0..3).map(|i| l.critic_params(i).unwrap().to_vec()).collect();
-    l.learn(&common::batch(&layout, 8, 0)).unwrap();
-    for i in 0..3 {
-        assert_eq!(l.actor_params(i).unwrap(), before[i]);
-        assert_eq!(l.critic_params(i).unwrap(), before_c[i]);
+    let (layout, mut l) = learner(Fake { zero: true, ..Fake::default() });
+    let before: Vec<_> = (0..3).map(|i| l.params(i).unwrap()).collect();
+    l.learn_batch(&common::batch(&layout, 8, 0), &common::bounds(&layout)).unwrap();
+    for (i, b) in before.iter().enumerate() {
+        assert_eq!(&l.params(i).unwrap(), b, "agent {i} moved although every gradient was zeroed");
     }
 }
 
 #[test]
 fn every_gradient_is_reduced() {
-    let layout = common::layout(&[2, 1, 1], 5, 2);
-    let config = DdpgConfig::new().with_hidden(16).with_seed(1);
     let calls = Arc::new(AtomicUsize::new(0));
-    let comm = Box::new(Fake { zero: false, calls: calls.clone() });
-    let mut l = DdpgLearner::with_parts(layout.clone(), config, None, comm, burn::tensor::Device::flex()).unwrap();
-    l.learn(&common::batch(&layout, 8, 0)).unwrap();
-    // 3 critic + 3 actor gradients + 4 normaliser updates (critic + 3 actors) = 10 calls.
-    assert_eq!(calls.load(Ordering::Relaxed), 10);
+    let (layout, mut l) = learner(Fake { zero: false, calls: calls.clone() });
+    l.learn_batch(&common::batch(&layout, 8, 0), &common::bounds(&layout)).unwrap();
+    // Per agent: critic 3 layers x (weight + bias) = 6, actor 6; normalisers: critic + 3 actors,
+    // each reducing its sums, squares and count = 3 calls. 3 * 12 + 4 * 3 = 48.
+    let n = calls.load(Ordering::Relaxed);
+    assert_eq!(n, 3 * 12 + 4 * normaliser_calls());
+}
+
+/// Calls one normaliser update makes (measured on a fresh normaliser).
+fn normaliser_calls() -> usize {
+    let calls = Arc::new(AtomicUsize::new(0));
+    let comm = Fake { zero: false, calls: calls.clone() };
+    Normalizer::new(2, 0.01, 5.0).update(&[1.0, 2.0], &comm);
+    calls.load(Ordering::Relaxed)
 }

@@ -1,5 +1,5 @@
 //! Shared set-up of the integration tests: the trainer on the TeamReach test env
-//! with the burn DDPG learner, for each of the paper's four configurations.
+//! with the burn learners, for each of the paper's four configurations.
 
 #![allow(dead_code)]
 
@@ -12,9 +12,6 @@ pub fn trainer_config(method: Method, seed: u64, epochs: usize) -> TrainerConfig
         epochs,
         cycles: 10,
         episodes_per_cycle: 2,
-        batches: 20,
-        batch_size: 128,
-        buffer_size: 100_000,
         eval_episodes: 20,
         shadow: ShadowConfig {
             enabled: method.shadow(),
@@ -32,20 +29,47 @@ pub fn trainer_config(method: Method, seed: u64, epochs: usize) -> TrainerConfig
     }
 }
 
-/// A trainer of `method` on TeamReach; actors observe their ring neighbours.
-pub fn team_reach_trainer(method: Method, seed: u64, epochs: usize) -> Trainer<TeamReach, DdpgLearner> {
-    let env = TeamReachConfig { reward: method.reward(), ..TeamReachConfig::default() }.init().unwrap();
+/// The replay and update schedule of the tests.
+pub fn replay() -> ReplayConfig {
+    ReplayConfig { buffer_size: 100_000, batch_size: 128, batches: 20, ..ReplayConfig::default() }
+}
+
+/// The TeamReach env of `method`'s task reward.
+pub fn team_reach(method: Method) -> TeamReach {
+    TeamReachConfig { reward: method.reward(), ..TeamReachConfig::default() }.init().unwrap()
+}
+
+/// The learner parts of the tests on `env`: ring graph, `method`'s sharing.
+pub fn parts(env: &TeamReach, method: Method, seed: u64, gamma: f64) -> LearnerParts {
     let graph = Graph::ring(3);
     let layout = ObservationLayout::from_graph(env.spec().clone(), &graph).unwrap();
-    let config = trainer_config(method, seed, epochs);
     let sharing = SharingConfig { enabled: method.sharing(), ..SharingConfig::default() }.build(&graph).unwrap();
-    let ddpg = DdpgConfig::new()
-        .with_hidden(64)
-        .with_layers(2)
-        .with_seed(seed)
-        .with_gamma(config.gamma_for(env.spec().episode_len));
-    let learner = DdpgLearner::new(layout.clone(), ddpg, sharing).unwrap();
+    let net = NetworkConfig::new().with_hidden(64).with_layers(2).with_seed(seed);
+    LearnerParts::new(layout, net, replay(), gamma).with_sharing(sharing)
+}
+
+/// A trainer of `kind` and `method` on TeamReach; actors observe their ring neighbours.
+pub fn team_reach_trainer_with(
+    kind: AlgorithmKind,
+    method: Method,
+    seed: u64,
+    epochs: usize,
+) -> Trainer<TeamReach, AnyLearner> {
+    let env = team_reach(method);
+    let config = trainer_config(method, seed, epochs);
+    let parts = parts(&env, method, seed, config.gamma_for(env.spec().episode_len));
+    let layout = parts.layout.clone();
+    let learner = match kind {
+        AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new()).unwrap()),
+        AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, Matd3Config::new()).unwrap()),
+        AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, MasacConfig::new()).unwrap()),
+    };
     Trainer::new(config, env, learner, layout).unwrap()
+}
+
+/// A MADDPG trainer of `method` on TeamReach.
+pub fn team_reach_trainer(method: Method, seed: u64, epochs: usize) -> Trainer<TeamReach, AnyLearner> {
+    team_reach_trainer_with(AlgorithmKind::Maddpg, method, seed, epochs)
 }
 
 /// An epoch's statistics without the wall-clock timings, which differ between runs.

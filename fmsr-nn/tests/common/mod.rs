@@ -3,7 +3,9 @@
 #![allow(dead_code)]
 
 use fmsr_core::agent::{Batch, ObservationLayout};
+use fmsr_core::replay::Episode;
 use fmsr_core::spec::{AgentSpec, EnvSpec};
+use fmsr_core::spec::{JointAction, Observation, StepInfo};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -76,8 +78,17 @@ pub fn batch(layout: &ObservationLayout, n: usize, seed: u64) -> Batch {
         task_rewards: vec![-1.0; n],
         features: vec![],
         rewards,
-        q_bounds: vec![(-100.0, 0.0); na],
     }
+}
+
+/// Q-target bounds wide enough not to clip.
+pub fn bounds(layout: &ObservationLayout) -> Vec<(f32, f32)> {
+    vec![(-100.0, 0.0); layout.spec().num_agents()]
+}
+
+/// Learner parts on the CPU with `net`, no sharing, discount `gamma`.
+pub fn parts(layout: &ObservationLayout, net: fmsr_nn::NetworkConfig, gamma: f64) -> fmsr_nn::LearnerParts {
+    fmsr_nn::LearnerParts::new(layout.clone(), net, fmsr_core::replay::ReplayConfig::default(), gamma)
 }
 
 /// One row of actor inputs per agent.
@@ -91,4 +102,44 @@ pub fn inputs(layout: &ObservationLayout, n: usize, seed: u64) -> Vec<Vec<f32>> 
 /// Bit patterns of a float vector, for exact comparisons.
 pub fn bits(v: &[f32]) -> Vec<u32> {
     v.iter().map(|x| x.to_bits()).collect()
+}
+
+/// A random episode of `layout`'s spec (observations, actions, no features).
+pub fn episode(layout: &ObservationLayout, seed: u64) -> Episode {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let spec = layout.spec();
+    let mut v = |len: usize| (0..len).map(|_| rng.random_range(-1.0f32..1.0)).collect::<Vec<f32>>();
+    let goal = v(spec.goal_dim);
+    let mut ep = Episode::with_capacity(spec.episode_len);
+    for t in 0..=spec.episode_len {
+        ep.observations.push(Observation {
+            global: v(spec.obs_dim),
+            locals: spec.agents.iter().map(|a| v(a.local_obs_dim)).collect(),
+            achieved_goal: v(spec.goal_dim),
+            desired_goal: goal.clone(),
+        });
+        if t < spec.episode_len {
+            ep.actions.push(JointAction(v(spec.action_dim)));
+            ep.infos.push(StepInfo { features: vec![0.0; spec.features.len()], ..StepInfo::default() });
+        }
+    }
+    ep
+}
+
+/// Rewards `-|achieved - desired|_1` for every agent, bounds `[-10, 0]`.
+#[derive(Debug)]
+pub struct L1Rewards(pub usize);
+
+impl fmsr_core::RewardModel for L1Rewards {
+    fn goal_reward(&self, achieved: &[f32], desired: &[f32]) -> f32 {
+        -achieved.iter().zip(desired).map(|(a, d)| (a - d).abs()).sum::<f32>()
+    }
+
+    fn agent_rewards(&self, task: f32, _phi: &[f32], out: &mut [f32]) {
+        out.iter_mut().for_each(|o| *o = task);
+    }
+
+    fn reward_bounds(&self) -> Vec<(f64, f64)> {
+        vec![(-10.0, 0.0); self.0]
+    }
 }

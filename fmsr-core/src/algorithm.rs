@@ -1,0 +1,65 @@
+//! The algorithm seam: a learner that owns its storage, its update schedule,
+//! its target networks and its save/restore.
+//!
+//! The training loop ([`crate::trainer`]) only knows this trait: it collects
+//! episodes with the algorithm's [`Policy`], hands each one to
+//! [`Algorithm::store`] (a HER replay buffer for off-policy algorithms, a
+//! rollout buffer for on-policy ones), then calls [`Algorithm::update`] once per
+//! cycle with the [`RewardModel`] that turns task rewards and features into each
+//! agent's reward `r_i` (eq. 7) under the current occupancy estimate. How many
+//! gradient steps a cycle runs, when targets move and when information sharing
+//! mixes (see [`crate::sharing`]) is the algorithm's business.
+
+use serde::{Deserialize, Serialize};
+
+use crate::policy::Policy;
+use crate::replay::Episode;
+
+/// Each agent's reward for a transition, as the collector defines it:
+/// `r_i = w_i * r_task(g_achieved, g) + alpha * sum_{k in S_i} z_k(phi_k, lambda_k)` (eq. 7).
+///
+/// Off-policy algorithms call it while sampling, so relabelled goals (HER) and
+/// the newest occupancy estimate enter every batch.
+pub trait RewardModel {
+    /// The task reward of reaching `achieved` when `desired` was the goal.
+    fn goal_reward(&self, achieved: &[f32], desired: &[f32]) -> f32;
+
+    /// Writes every agent's reward for a step with task reward `task` and
+    /// features `phi` into `out` (one value per agent).
+    fn agent_rewards(&self, task: f32, phi: &[f32], out: &mut [f32]);
+
+    /// Each agent's per-step reward bounds `(lo, hi)` (used to clip Q targets
+    /// to `[lo, hi] / (1 - gamma)`).
+    fn reward_bounds(&self) -> Vec<(f64, f64)>;
+}
+
+/// What one [`Algorithm::update`] call did, averaged over its gradient steps.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct UpdateStats {
+    /// Gradient steps taken (0 when the algorithm was not ready to learn).
+    pub updates: u64,
+    /// Mean critic loss of each agent.
+    pub critic_loss: Vec<f64>,
+    /// Mean actor loss of each agent (over the steps that updated actors).
+    pub actor_loss: Vec<f64>,
+}
+
+/// A multi-agent learning algorithm: a [`Policy`] that also learns.
+///
+/// Implemented by `fmsr-nn`'s MADDPG, MATD3 and MASAC, or by your own.
+pub trait Algorithm: Policy {
+    /// Stores one collected episode in the algorithm's own storage.
+    fn store(&mut self, episode: &Episode) -> Result<(), Self::Error>;
+
+    /// The updates of one training cycle, with rewards from `rewards`.
+    fn update(&mut self, rewards: &dyn RewardModel) -> Result<UpdateStats, Self::Error>;
+
+    /// The algorithm's whole state (networks, optimisers, normalisers, RNG and,
+    /// with `include_storage`, its replay or rollout storage) as bytes.
+    fn save_state(&self, include_storage: bool) -> Result<Vec<u8>, Self::Error>;
+
+    /// Restores a state written by [`Algorithm::save_state`]; a state of another
+    /// shape or algorithm is an error, never a panic. Storage absent from the
+    /// bytes is left as it is.
+    fn load_state(&mut self, bytes: &[u8]) -> Result<(), Self::Error>;
+}

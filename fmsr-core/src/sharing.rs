@@ -1,0 +1,142 @@
+//! Information sharing (IS, paper section III.C, eq. 8), independent of the
+//! algorithm.
+//!
+//! With a symmetric doubly stochastic mixing matrix `M` over the agents' graph,
+//! one consensus step replaces each agent's shared-shape parameters by the
+//! weighted average of its neighbours':
+//!
+//! ```text
+//! theta_i <- sum_j M[i][j] * theta_j                                  (eq. 8)
+//! ```
+//!
+//! [`InformationSharing`] decides *when* and *what* is mixed — after the
+//! critic step (target critics or both), after the actor step (target actors
+//! or both), on parameters or, in gradient mode, on the gradients before the
+//! optimiser step — and calls [`SharedParameters::consensus_step`] of whatever
+//! holds the parameters. Every algorithm of `fmsr-nn` calls the same two hooks
+//! at the same two places of its update, so IS means the same for all of them.
+
+use fmsr_graph::MixingMatrix;
+
+use crate::agent::{ShareMode, ShareTarget, Sharing};
+
+/// Which networks of the agents a consensus step acts on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum NetworkGroup {
+    /// The actors' trunks.
+    Actors,
+    /// The critics' trunks.
+    Critics,
+}
+
+/// Parameters (or gradients) of `N` agents that have one block of equal shape
+/// each, which a consensus step can mix.
+pub trait SharedParameters {
+    /// The error of the holder.
+    type Error;
+
+    /// `theta_i <- sum_j M[i][j] theta_j` over the blocks of `group`.
+    fn consensus_step(&mut self, group: NetworkGroup, mixing: &MixingMatrix) -> Result<(), Self::Error>;
+}
+
+/// When and what information sharing mixes; see the [module docs](self).
+#[derive(Debug, Clone, PartialEq)]
+pub struct InformationSharing {
+    sharing: Option<Sharing>,
+}
+
+impl InformationSharing {
+    /// Information sharing as configured (`None`: agents share nothing).
+    #[must_use]
+    pub fn new(sharing: Option<Sharing>) -> Self {
+        Self { sharing }
+    }
+
+    /// The configuration, if sharing is on.
+    #[must_use]
+    pub fn sharing(&self) -> Option<&Sharing> {
+        self.sharing.as_ref()
+    }
+
+    fn applies(&self, mode: ShareMode, group: NetworkGroup) -> Option<&MixingMatrix> {
+        let s = self.sharing.as_ref()?;
+        let target = matches!(
+            (s.target, group),
+            (ShareTarget::Both, _)
+                | (ShareTarget::Actors, NetworkGroup::Actors)
+                | (ShareTarget::Critics, NetworkGroup::Critics)
+        );
+        (s.mode == mode && target).then_some(&s.mixing)
+    }
+
+    /// Whether the gradients of `group` are mixed before its optimiser step.
+    #[must_use]
+    pub fn mixes_gradients(&self, group: NetworkGroup) -> bool {
+        self.applies(ShareMode::Gradients, group).is_some()
+    }
+
+    /// Gradient mode: mixes the gradients of `group` held by `grads`, if configured.
+    pub fn mix_gradients<P: SharedParameters>(&self, group: NetworkGroup, grads: &mut P) -> Result<(), P::Error> {
+        match self.applies(ShareMode::Gradients, group) {
+            Some(m) => grads.consensus_step(group, m),
+            None => Ok(()),
+        }
+    }
+
+    /// Parameter mode: mixes the parameters of `group` after its optimiser step, if configured.
+    pub fn mix_parameters<P: SharedParameters>(&self, group: NetworkGroup, params: &mut P) -> Result<(), P::Error> {
+        match self.applies(ShareMode::Parameters, group) {
+            Some(m) => params.consensus_step(group, m),
+            None => Ok(()),
+        }
+    }
+
+    /// Whether the shared parts of `group` must start identical (they are mixed at all).
+    #[must_use]
+    pub fn shares(&self, group: NetworkGroup) -> bool {
+        self.applies(ShareMode::Gradients, group).is_some() || self.applies(ShareMode::Parameters, group).is_some()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fmsr_graph::{Graph, MetropolisHastings, MixingRule};
+
+    /// Records which groups were mixed.
+    #[derive(Default)]
+    struct Log(Vec<NetworkGroup>);
+
+    impl SharedParameters for Log {
+        type Error = ();
+        fn consensus_step(&mut self, group: NetworkGroup, _: &MixingMatrix) -> Result<(), ()> {
+            self.0.push(group);
+            Ok(())
+        }
+    }
+
+    // Guards the schedule: mode and target decide exactly which hook mixes.
+    #[test]
+    fn mode_and_target_pick_the_hooks() {
+        let graph = Graph::ring(3);
+        let mixing = MetropolisHastings.mixing_matrix(&graph).unwrap();
+        let is = |mode, target| InformationSharing::new(Some(Sharing { mixing: mixing.clone(), mode, target }));
+        let run = |s: &InformationSharing| {
+            let mut log = Log::default();
+            for g in [NetworkGroup::Critics, NetworkGroup::Actors] {
+                s.mix_gradients(g, &mut log).unwrap();
+                s.mix_parameters(g, &mut log).unwrap();
+            }
+            log.0
+        };
+        assert_eq!(run(&is(ShareMode::Parameters, ShareTarget::Actors)), vec![NetworkGroup::Actors]);
+        assert_eq!(run(&is(ShareMode::Gradients, ShareTarget::Critics)), vec![NetworkGroup::Critics]);
+        assert_eq!(
+            run(&is(ShareMode::Parameters, ShareTarget::Both)),
+            vec![NetworkGroup::Critics, NetworkGroup::Actors]
+        );
+        assert!(run(&InformationSharing::new(None)).is_empty());
+        assert!(is(ShareMode::Gradients, ShareTarget::Actors).mixes_gradients(NetworkGroup::Actors));
+        assert!(!is(ShareMode::Gradients, ShareTarget::Actors).shares(NetworkGroup::Critics));
+    }
+}

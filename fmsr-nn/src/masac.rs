@@ -1,0 +1,258 @@
+//! MASAC: soft actor-critic (Haarnoja et al. 2018) per agent, with HER, shadow
+//! rewards and information sharing exactly as MADDPG.
+//!
+//! Agent `i`'s actor head gives the mean `m` and log standard deviation `s`
+//! (clamped to `[log_std_min, log_std_max]`) of a Gaussian squashed by tanh:
+//!
+//! ```text
+//! u = m + exp(s) * eps,  eps ~ N(0, I),   a = tanh(u)
+//! log pi(a | o) = sum_k [ -eps_k^2 / 2 - s_k - log(2 pi) / 2 - log(1 - tanh(u_k)^2) ]
+//! y_i  = clip(r_i + gamma * (min(Q'_i1, Q'_i2)(x', g, a') - alpha_i log pi_i(a'_i | o'_i)), lo_i, hi_i)
+//! L_Q  = mean (Q_i1 - y_i)^2 + mean (Q_i2 - y_i)^2
+//! L_pi = mean (alpha_i log pi_i(a_i | o_i) - min(Q_i1, Q_i2)(x, g, a_1..a_i..a_N))
+//! L_alpha = -mean log alpha_i (log pi_i(a_i | o_i) + H_i),   H_i = target_entropy_per_dim * dim(A_i)
+//! ```
+//!
+//! `a'` are sampled from the current actors; the critics' targets move once
+//! per cycle. Evaluation acts with `tanh(m)`.
+
+use std::sync::Mutex;
+
+use burn::module::Module;
+use burn::tensor::activation::softplus;
+use burn::tensor::{Device, Tensor};
+use fmsr_core::algorithm::{Algorithm, RewardModel, UpdateStats};
+use fmsr_core::policy::{ActMode, Policy, PolicyOutput};
+use fmsr_core::replay::Episode;
+use serde::{Deserialize, Serialize};
+
+use crate::config::MasacConfig;
+use crate::error::NnError;
+use crate::explore::{gaussian, randomize};
+use crate::learner::{Learner, LearnerParts, matrix, scalar};
+use crate::maddpg::{StepLosses, run_cycle};
+use crate::net::Actor;
+
+const HALF_LOG_TAU: f32 = 0.918_938_5; // log(2 pi) / 2
+
+/// Adam on one scalar (the log temperature), as the networks' Adam.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+struct ScalarAdam {
+    t: u64,
+    m: f64,
+    v: f64,
+}
+
+impl ScalarAdam {
+    fn step(&mut self, x: &mut f64, grad: f64, lr: f64, (b1, b2, eps): (f64, f64, f64)) {
+        self.t += 1;
+        self.m = b1 * self.m + (1.0 - b1) * grad;
+        self.v = b2 * self.v + (1.0 - b2) * grad * grad;
+        let t = self.t.min(i32::MAX as u64) as i32;
+        let (mh, vh) = (self.m / (1.0 - b1.powi(t)), self.v / (1.0 - b2.powi(t)));
+        *x -= lr * mh / (vh.sqrt() + eps);
+    }
+}
+
+/// Multi-agent SAC; see the [module docs](self).
+#[derive(Debug)]
+pub struct Masac {
+    learner: Learner,
+    config: MasacConfig,
+    log_alpha: Vec<f64>,
+    alpha_adam: Vec<ScalarAdam>,
+}
+
+/// A reparameterised sample `a = tanh(m + exp(s) eps)` and `log pi(a)` (`n x 1`).
+fn sample(head: Tensor<2>, eps: Tensor<2>, dim: usize, bounds: (f32, f32)) -> (Tensor<2>, Tensor<2>) {
+    let mean = head.clone().narrow(1, 0, dim);
+    let log_std = head.narrow(1, dim, dim).clamp(bounds.0, bounds.1);
+    let u = mean + log_std.clone().exp() * eps.clone();
+    let a = u.clone().tanh();
+    // log(1 - tanh(u)^2) = 2 (log 2 - u - softplus(-2u)), stable for large |u|.
+    let log_jac =
+        (u.clone().neg().sub_scalar(-std::f32::consts::LN_2) - softplus(u.mul_scalar(-2.0), 1.0)).mul_scalar(2.0);
+    let log_prob = (eps.square().mul_scalar(-0.5) - log_std).sub_scalar(HALF_LOG_TAU) - log_jac;
+    (a, log_prob.sum_dim(1))
+}
+
+impl Masac {
+    /// MASAC from the shared parts and its own config.
+    ///
+    /// # Errors
+    /// [`NnError::InvalidConfig`] / [`NnError::Sharing`] naming the first impossible setting.
+    pub fn new(parts: LearnerParts, config: MasacConfig) -> Result<Self, NnError> {
+        config.validate()?;
+        let learner = Learner::new(parts, 2, 2)?;
+        let n = learner.num_agents();
+        Ok(Self {
+            learner,
+            log_alpha: vec![config.initial_temperature.ln(); n],
+            alpha_adam: vec![ScalarAdam::default(); n],
+            config,
+        })
+    }
+
+    /// The algorithm's config.
+    #[must_use]
+    pub fn config(&self) -> &MasacConfig {
+        &self.config
+    }
+
+    /// Each agent's entropy temperature `alpha_i`.
+    #[must_use]
+    pub fn temperatures(&self) -> Vec<f64> {
+        self.log_alpha.iter().map(|l| l.exp()).collect()
+    }
+
+    fn bounds(&self) -> (f32, f32) {
+        (self.config.log_std_min as f32, self.config.log_std_max as f32)
+    }
+
+    fn noise(&mut self, n: usize, dim: usize, device: &Device) -> Tensor<2> {
+        let v = (0..n * dim).map(|_| gaussian(&mut self.learner.rng)).collect();
+        matrix(v, n, dim, device)
+    }
+
+    /// One step of every agent's critics, actor and temperature; `None` while the replay is empty.
+    ///
+    /// # Errors
+    /// Backend and shape errors.
+    pub fn step(&mut self, rewards: &dyn RewardModel) -> Result<Option<StepLosses>, NnError> {
+        let Some(b) = self.learner.sample(rewards)? else { return Ok(None) };
+        let (n, na, bounds) = (b.n, self.learner.num_agents(), self.bounds());
+        let device = self.learner.device.clone();
+        // Next actions from the current actors, with their log-probabilities.
+        let eps_next: Vec<Tensor<2>> = (0..na).map(|i| self.noise(n, self.learner.action_dim(i), &device)).collect();
+        let alphas: Vec<f32> = self.log_alpha.iter().map(|l| l.exp() as f32).collect();
+        let next = self.learner.per_agent(|i, a| {
+            let head = a.actor.valid().forward(b.x_next[i].clone());
+            Ok(sample(head, eps_next[i].clone(), eps_next[i].dims()[1], bounds))
+        })?;
+        let (next, next_logp): (Vec<Tensor<2>>, Vec<Tensor<2>>) = next.into_iter().unzip();
+        let soft = next_logp.into_iter().zip(&alphas).map(|(lp, &al)| lp.mul_scalar(al)).collect();
+        let critic = self.learner.critic_step(&b, Tensor::cat(next, 1), Some(soft))?;
+        // Actor step on fresh samples; the batch means of log pi feed the temperature.
+        let eps: Vec<Tensor<2>> =
+            (0..na).map(|i| Tensor::from_inner(self.noise(n, self.learner.action_dim(i), &device))).collect();
+        let dims: Vec<usize> = (0..na).map(|i| self.learner.action_dim(i)).collect();
+        let mean_logp = Mutex::new(vec![0.0f32; na]);
+        let joint = self.learner.joint();
+        let actor = self.learner.actor_step(&b, |i, actor: &Actor, critics, b| {
+            let head = actor.forward(Tensor::from_inner(b.x_now[i].clone()));
+            let (a, lp) = sample(head, eps[i].clone(), dims[i], bounds);
+            let input = joint.with(i, a, b);
+            let q = critics.nets[0].forward(input.clone()).min_pair(critics.nets[1].forward(input));
+            let m = scalar(&lp.clone().mean())?;
+            if let Ok(mut v) = mean_logp.lock() {
+                v[i] = m;
+            }
+            Ok((lp.mul_scalar(alphas[i]) - q).mean())
+        })?;
+        let mean_logp =
+            mean_logp.into_inner().map_err(|_| NnError::Backend { what: "log pi", reason: "poisoned".into() })?;
+        self.update_temperatures(&mean_logp, &dims);
+        self.learner.steps += 1;
+        Ok(Some(StepLosses { critic, actor: Some(actor) }))
+    }
+
+    fn update_temperatures(&mut self, mean_logp: &[f32], dims: &[usize]) {
+        let c = &self.learner.net;
+        let betas = (c.adam_beta1, c.adam_beta2, c.adam_epsilon);
+        for (((la, adam), &lp), &d) in self.log_alpha.iter_mut().zip(&mut self.alpha_adam).zip(mean_logp).zip(dims) {
+            let target = self.config.target_entropy_per_dim * d as f64;
+            let grad = -(f64::from(lp) + target);
+            adam.step(la, grad, self.config.lr_temperature, betas);
+        }
+    }
+
+    /// Agent `agent`'s actor trunk, flattened.
+    ///
+    /// # Errors
+    /// [`NnError::UnknownAgent`].
+    pub fn actor_trunk(&self, agent: usize) -> Result<Vec<f32>, NnError> {
+        self.learner.actor_trunk(agent)
+    }
+}
+
+impl Policy for Masac {
+    type Error = NnError;
+
+    fn num_agents(&self) -> usize {
+        self.learner.num_agents()
+    }
+
+    fn act(&mut self, inputs: &[Vec<f32>], n: usize, mode: ActMode) -> Result<PolicyOutput, NnError> {
+        let heads = self.learner.heads(inputs, n)?;
+        let (lo, hi) = self.bounds();
+        let mut actions = Vec::with_capacity(heads.len());
+        let mut log_probs = Vec::with_capacity(heads.len());
+        for (i, h) in heads.iter().enumerate() {
+            let d = self.learner.action_dim(i);
+            let mut a = Vec::with_capacity(n * d);
+            let mut lps = Vec::with_capacity(n);
+            for row in h.chunks_exact(2 * d) {
+                let (mean, log_std) = row.split_at(d);
+                let mut lp = 0.0f32;
+                for (m, s) in mean.iter().zip(log_std) {
+                    let s = s.clamp(lo, hi);
+                    let eps = if mode == ActMode::Explore { gaussian(&mut self.learner.rng) } else { 0.0 };
+                    let u = m + s.exp() * eps;
+                    lp += -0.5 * eps * eps - s - HALF_LOG_TAU - (1.0 - u.tanh().powi(2) + 1e-6).ln();
+                    a.push(u.tanh());
+                }
+                lps.push(lp);
+            }
+            actions.push(a);
+            log_probs.push(lps);
+        }
+        if mode == ActMode::Explore && self.config.random_eps > 0.0 {
+            randomize(&mut actions, n, self.config.random_eps as f32, &mut self.learner.rng);
+        }
+        Ok(PolicyOutput {
+            actions,
+            log_probs: if mode == ActMode::Explore { log_probs } else { Vec::new() },
+            values: Vec::new(),
+        })
+    }
+}
+
+impl Algorithm for Masac {
+    fn store(&mut self, episode: &Episode) -> Result<(), NnError> {
+        self.learner.store(episode)
+    }
+
+    fn update(&mut self, rewards: &dyn RewardModel) -> Result<UpdateStats, NnError> {
+        let (batches, agents) = (self.learner.replay_config.batches, self.learner.num_agents());
+        let stats = run_cycle(batches, agents, || self.step(rewards))?;
+        if stats.updates > 0 {
+            self.learner.soft_update_targets(self.config.polyak, false);
+        }
+        Ok(stats)
+    }
+
+    fn save_state(&self, include_storage: bool) -> Result<Vec<u8>, NnError> {
+        let mut extra = self.log_alpha.clone();
+        for a in &self.alpha_adam {
+            extra.extend([a.t as f64, a.m, a.v]);
+        }
+        self.learner.save("masac", include_storage, extra)
+    }
+
+    fn load_state(&mut self, bytes: &[u8]) -> Result<(), NnError> {
+        let extra = self.learner.load("masac", bytes)?;
+        let n = self.log_alpha.len();
+        if extra.len() != 4 * n {
+            return Err(NnError::StateMismatch {
+                what: "temperature state".into(),
+                expected: (4 * n).to_string(),
+                found: extra.len().to_string(),
+            });
+        }
+        self.log_alpha.copy_from_slice(&extra[..n]);
+        for (a, c) in self.alpha_adam.iter_mut().zip(extra[n..].chunks_exact(3)) {
+            *a = ScalarAdam { t: c[0] as u64, m: c[1], v: c[2] };
+        }
+        Ok(())
+    }
+}
