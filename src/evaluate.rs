@@ -148,14 +148,14 @@ impl EvalReport {
 /// Evaluates the policy of the run in `dir` (its last checkpoint) on `env`, on
 /// the fixed test set of `config.eval`, and writes `eval.json`. `dt` is the
 /// duration of one env step (s), for the derivatives.
-pub fn evaluate_run<E: Env + ContactReadout>(
+pub fn evaluate_run<E: Env + ContactReadout + Send>(
     config: &ExperimentConfig,
     env: E,
     dir: &RunDir,
     dt: f64,
 ) -> Result<EvalReport, ExperimentError> {
     let start = Instant::now();
-    let mut trainer = config.build_trainer(env)?;
+    let mut trainer = config.build_trainer(vec![env])?;
     trainer.load_checkpoint(&dir.checkpoint())?;
     let seeds = config.eval.seeds();
     let threshold = config.eval.threshold;

@@ -479,8 +479,11 @@ impl ExperimentConfig {
     ///
     /// # Errors
     /// [`ExperimentError`] naming the key of the first setting that does not fit `env`.
-    pub fn build_trainer<E: Env>(&self, env: E) -> Result<Trainer<E, AnyLearner>, ExperimentError> {
-        let spec = env.spec().clone();
+    pub fn build_trainer<E: Env + Send>(&self, envs: Vec<E>) -> Result<Trainer<E, AnyLearner>, ExperimentError> {
+        let spec = envs
+            .first()
+            .map(|e| e.spec().clone())
+            .ok_or_else(|| ExperimentError::Config { key: "trainer.envs".into(), reason: "no environment".into() })?;
         let graph = self.graph.build(&spec)?;
         let layout = ObservationLayout::from_graph(spec.clone(), &graph)
             .map_err(|source| ExperimentError::Invalid { key: "graph.edges", source })?;
@@ -503,6 +506,11 @@ impl ExperimentConfig {
             AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, self.matd3_config())?),
             AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, self.masac_config())?),
         };
-        Ok(Trainer::new(trainer_config, env, learner, layout)?)
+        let mut trainer_config = trainer_config;
+        if envs.len() != trainer_config.num_envs() {
+            // fmsr eval runs the test set on one environment.
+            trainer_config.envs = Some(envs.len());
+        }
+        Ok(Trainer::with_envs(trainer_config, envs, learner, layout)?)
     }
 }

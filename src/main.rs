@@ -194,13 +194,19 @@ fn train(args: &TrainArgs) -> Result<RunDir> {
     };
     match config.engine {
         Engine::Rapier => {
-            let env = config.env_config().init().context("building the rapier Shadow Hand")?;
-            run::train(&config, env, &dir, resume, on_epoch)?;
+            let envs = (0..config.trainer.num_envs())
+                .map(|_| config.env_config().init())
+                .collect::<Result<Vec<_>, _>>()
+                .context("building the rapier Shadow Hand")?;
+            run::train(&config, envs, &dir, resume, on_epoch)?;
         }
         #[cfg(feature = "mujoco")]
         Engine::Mujoco => {
-            let env = config.env_config().init_mujoco(Default::default()).context("building the MuJoCo Shadow Hand")?;
-            run::train(&config, env, &dir, resume, on_epoch)?;
+            let envs = (0..config.trainer.num_envs())
+                .map(|_| config.env_config().init_mujoco(Default::default()))
+                .collect::<Result<Vec<_>, _>>()
+                .context("building the MuJoCo Shadow Hand")?;
+            run::train(&config, envs, &dir, resume, on_epoch)?;
         }
         #[cfg(not(feature = "mujoco"))]
         Engine::Mujoco => return Err(fmsr::experiment::ExperimentError::EngineUnavailable.into()),

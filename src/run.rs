@@ -140,18 +140,18 @@ impl RunDir {
     }
 }
 
-/// Trains `config` on `env` in `dir`: a new run (refusing to overwrite one that
+/// Trains `config` on `envs` (`config.trainer.num_envs()` copies of the task) in `dir`: a new run (refusing to overwrite one that
 /// has a checkpoint) or, with `resume`, the continuation of the run in `dir`.
 /// After every epoch the checkpoint and the logs are written and `on_epoch` is
 /// called.
-pub fn train<E: Env>(
+pub fn train<E: Env + Send>(
     config: &ExperimentConfig,
-    env: E,
+    envs: Vec<E>,
     dir: &RunDir,
     resume: bool,
     mut on_epoch: impl FnMut(&EpochStats),
 ) -> Result<Trainer<E, fmsr_nn::AnyLearner>, ExperimentError> {
-    let mut trainer = config.build_trainer(env)?;
+    let mut trainer = config.build_trainer(envs)?;
     if resume {
         trainer.load_checkpoint(&dir.checkpoint())?;
     } else if dir.checkpoint().exists() {

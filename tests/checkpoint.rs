@@ -1,11 +1,12 @@
 //! Guards reproducibility and checkpoints (issue 3, item 6): two runs with the
-//! same seed give identical statistics on the CPU backend; a run resumed from a
+//! same seed give identical statistics on the CPU backend, whatever the number
+//! of threads stepping the vectorised environments; a run resumed from a
 //! checkpoint (with its replay buffer) continues exactly as the uninterrupted
 //! run; corrupted, truncated or mismatched checkpoints are clear errors.
 
 mod common;
 
-use common::{learning_stats, team_reach_trainer};
+use common::{learning_stats, team_reach_trainer, team_reach_trainer_config};
 use fmsr::prelude::*;
 
 #[test]
@@ -20,6 +21,26 @@ fn same_seed_same_run() {
     let mut other = team_reach_trainer(Method::DenseFmsrIs, 6, 1);
     other.train(|_, _| Ok(())).unwrap();
     assert_ne!(learning_stats(&other.history()[0]), a[0], "a different seed should change the run");
+}
+
+#[test]
+fn stepping_threads_do_not_change_the_history() {
+    let run = |threads: usize| {
+        let config = TrainerConfig {
+            envs: Some(4),
+            threads: Some(threads),
+            episodes_per_cycle: 4,
+            ..common::trainer_config(Method::DenseFmsrIs, 9, 2)
+        };
+        let mut t = team_reach_trainer_config(AlgorithmKind::Maddpg, Method::DenseFmsrIs, config);
+        t.train(|_, _| Ok(())).unwrap();
+        t.history().iter().map(learning_stats).collect::<Vec<_>>()
+    };
+    let one = run(1);
+    assert_eq!(one, run(2));
+    assert_eq!(one, run(3));
+    // Per epoch: 10 cycles x 4 rollouts and 20 evaluation episodes of 20 steps.
+    assert_eq!(one[1].env_steps, 2 * (10 * 4 + 20) * 20);
 }
 
 #[test]

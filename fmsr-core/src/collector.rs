@@ -4,7 +4,18 @@
 //!
 //! It is generic over the environment, the [`OccupancyEstimator`] and the
 //! [`ShadowReward`] utility, so a user's own estimator or utility trains
-//! exactly like the paper's [`DiscountedOccupancy`] and [`LogUtility`]:
+//! exactly like the paper's [`DiscountedOccupancy`] and [`LogUtility`].
+//!
+//! **Vectorised rollouts.** [`Collector::rollouts`] runs a list of seeded
+//! episodes on the collector's environments in lockstep: at every step one
+//! batched call of the policy acts for all running environments, which then
+//! step in parallel on a thread pool ([`Collector::with_threads`]). Each
+//! environment's step depends only on its own state, and episodes come back in
+//! the order of their seeds, so the result does not depend on the number of
+//! threads; it does depend on the number of environments (the policy's
+//! exploration noise is drawn per batch row).
+//!
+//! ```
 //!
 //! ```
 //! use fmsr_core::prelude::*;
@@ -50,6 +61,8 @@
 //! # Ok::<(), CoreError>(())
 //! ```
 
+use rayon::prelude::*;
+
 use crate::agent::ObservationLayout;
 use crate::algorithm::RewardModel;
 use crate::env::Env;
@@ -58,7 +71,7 @@ use crate::occupancy::{DiscountedOccupancy, OccupancyEstimator};
 use crate::policy::{ActMode, Policy};
 use crate::replay::Episode;
 use crate::shadow::{AgentRewards, LogUtility, ShadowReward};
-use crate::spec::{JointAction, StepOutcome};
+use crate::spec::{JointAction, Observation, StepOutcome};
 
 fn env_err<E: std::error::Error + Send + Sync + 'static>(e: E) -> CoreError {
     CoreError::Env(Box::new(e))
@@ -67,7 +80,10 @@ fn env_err<E: std::error::Error + Send + Sync + 'static>(e: E) -> CoreError {
 /// Runs episodes and keeps the occupancy estimate; see the [module docs](self).
 #[derive(Debug)]
 pub struct Collector<E, O = DiscountedOccupancy, S = LogUtility> {
-    env: E,
+    /// At least one environment; [`Collector::rollouts`] uses all of them.
+    envs: Vec<E>,
+    /// Threads stepping the environments (`None`: on the calling thread).
+    pool: Option<rayon::ThreadPool>,
     layout: ObservationLayout,
     occupancy: O,
     rewards: AgentRewards<S>,
@@ -81,7 +97,31 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
     /// # Errors
     /// [`CoreError`] when the layout, estimator or reward computation do not fit `env`'s spec.
     pub fn new(env: E, layout: ObservationLayout, occupancy: O, rewards: AgentRewards<S>) -> Result<Self, CoreError> {
-        let spec = env.spec();
+        Self::with_envs(vec![env], layout, occupancy, rewards)
+    }
+
+    /// A collector of several copies of one environment (all with the same
+    /// spec), for [`Collector::rollouts`].
+    ///
+    /// # Errors
+    /// [`CoreError`] when `envs` is empty, their specs differ, or the layout,
+    /// estimator or reward computation do not fit the spec.
+    pub fn with_envs(
+        envs: Vec<E>,
+        layout: ObservationLayout,
+        occupancy: O,
+        rewards: AgentRewards<S>,
+    ) -> Result<Self, CoreError> {
+        let Some(first) = envs.first() else {
+            return Err(CoreError::InvalidConfig { key: "trainer.envs".into(), reason: "must be at least 1".into() });
+        };
+        if envs.iter().any(|e| e.spec() != first.spec()) {
+            return Err(CoreError::InvalidConfig {
+                key: "trainer.envs".into(),
+                reason: "the environments do not share one spec".into(),
+            });
+        }
+        let spec = first.spec();
         spec.validate()?;
         if layout.spec() != spec {
             return Err(CoreError::InvalidConfig {
@@ -103,7 +143,33 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
                 found: rewards.num_agents(),
             });
         }
-        Ok(Self { env, layout, occupancy, rewards, env_steps: 0 })
+        Ok(Self { envs, pool: None, layout, occupancy, rewards, env_steps: 0 })
+    }
+
+    /// Steps the environments on `threads` threads (1: on the calling thread).
+    ///
+    /// # Errors
+    /// [`CoreError::InvalidConfig`] for 0 threads or a pool that cannot start.
+    pub fn with_threads(mut self, threads: usize) -> Result<Self, CoreError> {
+        let bad = |reason: String| CoreError::InvalidConfig { key: "trainer.threads".into(), reason };
+        self.pool = match threads {
+            0 => return Err(bad("must be at least 1".into())),
+            1 => None,
+            n => Some(
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .thread_name(|k| format!("fmsr-env-{k}"))
+                    .build()
+                    .map_err(|e| bad(e.to_string()))?,
+            ),
+        };
+        Ok(self)
+    }
+
+    /// Number of environments.
+    #[must_use]
+    pub fn num_envs(&self) -> usize {
+        self.envs.len()
     }
 
     /// Runs one episode from `seed`, acting with `policy` in `mode`, and calls
@@ -119,15 +185,10 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
         mode: ActMode,
         on_step: &mut dyn FnMut(&E, &StepOutcome),
     ) -> Result<Episode, CoreError> {
-        let spec = self.env.spec().clone();
-        if policy.num_agents() != spec.agents.len() {
-            return Err(CoreError::Dimension {
-                what: "policy agents",
-                expected: spec.agents.len(),
-                found: policy.num_agents(),
-            });
-        }
-        let mut obs = self.env.reset(seed).map_err(env_err)?;
+        let spec = self.envs[0].spec().clone();
+        check_policy(policy, &spec)?;
+        let env = &mut self.envs[0];
+        let mut obs = env.reset(seed).map_err(env_err)?;
         obs.validate(&spec)?;
         let mut prev = JointAction::zeros(spec.action_dim);
         let mut episode = Episode::with_capacity(spec.episode_len);
@@ -135,16 +196,9 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
             let inputs = self.layout.actor_inputs(&obs, &prev);
             let out = policy.act(&inputs, 1, mode).map_err(|e| CoreError::Algorithm(Box::new(e)))?;
             let joint = JointAction::from_agents(&spec.agents, &out.actions)?;
-            let outcome = self.env.step(&joint).map_err(env_err)?;
-            outcome.observation.validate(&spec)?;
-            if outcome.info.features.len() != spec.features.len() {
-                return Err(CoreError::Dimension {
-                    what: "step features",
-                    expected: spec.features.len(),
-                    found: outcome.info.features.len(),
-                });
-            }
-            on_step(&self.env, &outcome);
+            let outcome = env.step(&joint).map_err(env_err)?;
+            check_outcome(&outcome, &spec)?;
+            on_step(env, &outcome);
             if !out.log_probs.is_empty() {
                 episode.log_probs.push(out.log_probs.iter().map(|l| l.first().copied().unwrap_or(0.0)).collect());
             }
@@ -171,22 +225,22 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
         let mut step = vec![0.0f32; returns.len()];
         for (t, info) in episode.infos.iter().enumerate() {
             let o = &episode.observations[t + 1];
-            let task = self.env.goal_reward(&o.achieved_goal, &o.desired_goal);
+            let task = self.envs[0].goal_reward(&o.achieved_goal, &o.desired_goal);
             self.agent_rewards(task, &info.features, &mut step);
             returns.iter_mut().zip(&step).for_each(|(r, v)| *r += f64::from(*v));
         }
         Ok(returns)
     }
 
-    /// The environment.
+    /// The (first) environment.
     #[must_use]
     pub fn env(&self) -> &E {
-        &self.env
+        &self.envs[0]
     }
 
-    /// The environment, mutably.
+    /// The (first) environment, mutably.
     pub fn env_mut(&mut self) -> &mut E {
-        &mut self.env
+        &mut self.envs[0]
     }
 
     /// How actor inputs are assembled.
@@ -220,9 +274,130 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
     }
 }
 
+impl<E: Env + Send, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
+    /// Runs one episode per seed, in lockstep on the environments (chunks of
+    /// [`Collector::num_envs`] seeds); returns the episodes in seed order. See
+    /// the [module docs](self).
+    ///
+    /// # Errors
+    /// Errors of the environments or the policy, and outputs of the wrong shape.
+    pub fn rollouts<P: Policy>(
+        &mut self,
+        policy: &mut P,
+        seeds: &[u64],
+        mode: ActMode,
+    ) -> Result<Vec<Episode>, CoreError> {
+        let spec = self.envs[0].spec().clone();
+        check_policy(policy, &spec)?;
+        let mut episodes = Vec::with_capacity(seeds.len());
+        for chunk in seeds.chunks(self.envs.len()) {
+            episodes.extend(self.lockstep(policy, chunk, mode)?);
+        }
+        Ok(episodes)
+    }
+
+    /// One episode on each of the first `seeds.len()` environments.
+    fn lockstep<P: Policy>(&mut self, policy: &mut P, seeds: &[u64], mode: ActMode) -> Result<Vec<Episode>, CoreError> {
+        let spec = self.envs[0].spec().clone();
+        let k = seeds.len();
+        let mut obs = self.map_envs(k, |env, e| env.reset(seeds[e]))?;
+        for o in &obs {
+            o.validate(&spec)?;
+        }
+        let mut prev = vec![JointAction::zeros(spec.action_dim); k];
+        let mut episodes: Vec<Episode> = (0..k).map(|_| Episode::with_capacity(spec.episode_len)).collect();
+        for _ in 0..spec.episode_len {
+            let inputs = self.batched_inputs(&obs, &prev);
+            let out = policy.act(&inputs, k, mode).map_err(|e| CoreError::Algorithm(Box::new(e)))?;
+            let joints = (0..k)
+                .map(|e| JointAction::from_agents(&spec.agents, &row(&out.actions, e, k)))
+                .collect::<Result<Vec<_>, _>>()?;
+            let outcomes = self.map_envs(k, |env, e| env.step(&joints[e]))?;
+            for (e, (outcome, joint)) in outcomes.into_iter().zip(joints).enumerate() {
+                check_outcome(&outcome, &spec)?;
+                let episode = &mut episodes[e];
+                if !out.log_probs.is_empty() {
+                    episode.log_probs.push(out.log_probs.iter().map(|l| l.get(e).copied().unwrap_or(0.0)).collect());
+                }
+                episode.observations.push(std::mem::replace(&mut obs[e], outcome.observation));
+                episode.actions.push(joint.clone());
+                episode.infos.push(outcome.info);
+                prev[e] = joint;
+            }
+        }
+        for (episode, o) in episodes.iter_mut().zip(obs) {
+            episode.observations.push(o);
+        }
+        self.env_steps += (k * spec.episode_len) as u64;
+        Ok(episodes)
+    }
+
+    /// Each agent's actor inputs of every environment, one row per environment.
+    fn batched_inputs(&self, obs: &[Observation], prev: &[JointAction]) -> Vec<Vec<f32>> {
+        let agents = self.layout.spec().agents.len();
+        (0..agents)
+            .map(|i| {
+                let mut rows = Vec::with_capacity(obs.len() * self.layout.actor_input_dim(i));
+                for (o, p) in obs.iter().zip(prev) {
+                    self.layout.push_actor_input(i, &o.locals[i], &o.desired_goal, &p.0, &mut rows);
+                }
+                rows
+            })
+            .collect()
+    }
+
+    /// `f(env_e, e)` for the first `k` environments, on the pool when there is one.
+    fn map_envs<T: Send>(
+        &mut self,
+        k: usize,
+        f: impl Fn(&mut E, usize) -> Result<T, E::Error> + Sync,
+    ) -> Result<Vec<T>, CoreError> {
+        let envs = &mut self.envs[..k];
+        let results: Vec<Result<T, E::Error>> = match &self.pool {
+            Some(pool) => pool.install(|| envs.par_iter_mut().enumerate().map(|(e, env)| f(env, e)).collect()),
+            None => envs.iter_mut().enumerate().map(|(e, env)| f(env, e)).collect(),
+        };
+        results.into_iter().map(|r| r.map_err(env_err)).collect()
+    }
+}
+
+/// Row `e` of every agent's `k`-row output.
+fn row(actions: &[Vec<f32>], e: usize, k: usize) -> Vec<Vec<f32>> {
+    actions
+        .iter()
+        .map(|a| {
+            let d = a.len() / k.max(1);
+            a[e * d..(e + 1) * d].to_vec()
+        })
+        .collect()
+}
+
+fn check_policy<P: Policy>(policy: &P, spec: &crate::spec::EnvSpec) -> Result<(), CoreError> {
+    if policy.num_agents() != spec.agents.len() {
+        return Err(CoreError::Dimension {
+            what: "policy agents",
+            expected: spec.agents.len(),
+            found: policy.num_agents(),
+        });
+    }
+    Ok(())
+}
+
+fn check_outcome(outcome: &StepOutcome, spec: &crate::spec::EnvSpec) -> Result<(), CoreError> {
+    outcome.observation.validate(spec)?;
+    if outcome.info.features.len() != spec.features.len() {
+        return Err(CoreError::Dimension {
+            what: "step features",
+            expected: spec.features.len(),
+            found: outcome.info.features.len(),
+        });
+    }
+    Ok(())
+}
+
 impl<E: Env, O: OccupancyEstimator, S: ShadowReward> RewardModel for Collector<E, O, S> {
     fn goal_reward(&self, achieved: &[f32], desired: &[f32]) -> f32 {
-        self.env.goal_reward(achieved, desired)
+        self.envs[0].goal_reward(achieved, desired)
     }
 
     fn agent_rewards(&self, task: f32, phi: &[f32], out: &mut [f32]) {
@@ -230,6 +405,6 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> RewardModel for Collector<E
     }
 
     fn reward_bounds(&self) -> Vec<(f64, f64)> {
-        self.rewards.step_bounds(self.env.spec().reward_range)
+        self.rewards.step_bounds(self.envs[0].spec().reward_range)
     }
 }

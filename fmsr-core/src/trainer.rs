@@ -46,6 +46,13 @@ pub struct TrainerConfig {
     pub cycles: usize,
     /// Rollouts per cycle (HER baselines: 2 per worker).
     pub episodes_per_cycle: usize,
+    /// Environments that run rollouts in lockstep, with one batched policy
+    /// call per step; `None` is `episodes_per_cycle`, so a cycle's rollouts run
+    /// at once. The history depends on it (exploration noise is drawn per row).
+    pub envs: Option<usize>,
+    /// Threads that step the environments; `None` is the number of cores. The
+    /// history does not depend on it.
+    pub threads: Option<usize>,
     /// Discount of the whole method: occupancy (eq. 1) and critic targets; `None` is `1 - 1/T`.
     pub gamma: Option<f64>,
     /// Evaluation episodes at the end of every epoch (paper: 50).
@@ -61,6 +68,8 @@ impl Default for TrainerConfig {
             epochs: 400,
             cycles: 25,
             episodes_per_cycle: 2,
+            envs: None,
+            threads: None,
             gamma: None,
             eval_episodes: 50,
             shadow: ShadowConfig::default(),
@@ -88,7 +97,31 @@ impl TrainerConfig {
         {
             return bad("trainer.gamma", "must be in [0, 1)");
         }
+        if self.envs == Some(0) {
+            return bad("trainer.envs", "must be at least 1");
+        }
+        if self.threads == Some(0) {
+            return bad("trainer.threads", "must be at least 1");
+        }
         Ok(())
+    }
+
+    /// The number of environments: `envs` or `episodes_per_cycle`.
+    ///
+    /// ```
+    /// use fmsr_core::trainer::TrainerConfig;
+    /// assert_eq!(TrainerConfig { episodes_per_cycle: 8, ..TrainerConfig::default() }.num_envs(), 8);
+    /// assert_eq!(TrainerConfig { envs: Some(3), ..TrainerConfig::default() }.num_envs(), 3);
+    /// ```
+    #[must_use]
+    pub fn num_envs(&self) -> usize {
+        self.envs.unwrap_or(self.episodes_per_cycle)
+    }
+
+    /// The number of stepping threads: `threads` or the number of cores.
+    #[must_use]
+    pub fn num_threads(&self) -> usize {
+        self.threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, std::num::NonZero::get))
     }
 
     /// The discount for episodes of length `horizon`: `gamma` or `1 - 1/T`.
@@ -230,24 +263,41 @@ fn algo_err<E: std::error::Error + Send + Sync + 'static>(e: E) -> CoreError {
     CoreError::Algorithm(Box::new(e))
 }
 
-impl<E: Env, A: Algorithm> Trainer<E, A> {
+impl<E: Env + Send, A: Algorithm> Trainer<E, A> {
     /// A trainer of `algorithm` on `env` with the paper's occupancy estimator and
     /// log utility as configured in `config.shadow`; actors see inputs laid out by `layout`.
     ///
     /// # Errors
     /// [`CoreError`] naming the first setting that does not fit `env`.
     pub fn new(config: TrainerConfig, env: E, algorithm: A, layout: ObservationLayout) -> Result<Self, CoreError> {
+        Self::with_envs(config, vec![env], algorithm, layout)
+    }
+
+    /// As [`Trainer::new`] with several copies of one environment, which run
+    /// rollouts in lockstep ([`Collector::rollouts`]).
+    ///
+    /// # Errors
+    /// [`CoreError`] naming the first setting that does not fit the environments.
+    pub fn with_envs(
+        config: TrainerConfig,
+        envs: Vec<E>,
+        algorithm: A,
+        layout: ObservationLayout,
+    ) -> Result<Self, CoreError> {
         config.validate()?;
-        let spec = env.spec().clone();
+        let spec = envs
+            .first()
+            .map(|e| e.spec().clone())
+            .ok_or(CoreError::InvalidConfig { key: "trainer.envs".into(), reason: "must be at least 1".into() })?;
         let gamma = config.gamma_for(spec.episode_len);
         let rewards = config.shadow.agent_rewards(&spec)?;
         let occupancy = config.shadow.occupancy(&spec, gamma)?;
-        let collector = Collector::new(env, layout, occupancy, rewards)?;
+        let collector = Collector::with_envs(envs, layout, occupancy, rewards)?;
         Self::with_collector(config, collector, algorithm)
     }
 }
 
-impl<E: Env, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Trainer<E, A, O, S> {
+impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Trainer<E, A, O, S> {
     /// A trainer of `algorithm` with a collector of your own (your own
     /// [`OccupancyEstimator`] and [`ShadowReward`]). `config.shadow` is not
     /// used to build anything here: the collector carries the estimator and rewards.
@@ -363,8 +413,7 @@ impl<E: Env, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Trainer<E, A,
         let k = self.env().spec().features.len();
         let mut summary = EvalSummary { episodes: seeds.len(), feature_rates: vec![0.0; k], ..EvalSummary::default() };
         let (mut successes, mut drops, mut steps) = (0usize, 0usize, 0usize);
-        for &seed in seeds {
-            let ep = self.rollout(seed, ActMode::Evaluate)?;
+        for ep in self.collector.rollouts(&mut self.algorithm, seeds, ActMode::Evaluate)? {
             let Some(last) = ep.observations.last() else { continue };
             let d = self.env().goal_distance(&last.achieved_goal, &last.desired_goal);
             let success = match threshold {
@@ -395,9 +444,8 @@ impl<E: Env, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Trainer<E, A,
     /// Collect and store: one cycle's exploring rollouts, each stored by the
     /// algorithm and observed by the occupancy estimator.
     fn collect(&mut self, tally: &mut EpochTally) -> Result<(), CoreError> {
-        for _ in 0..self.config.episodes_per_cycle {
-            let seed = self.state.rng.random::<u64>();
-            let episode = self.rollout(seed, ActMode::Explore)?;
+        let seeds: Vec<u64> = (0..self.config.episodes_per_cycle).map(|_| self.state.rng.random::<u64>()).collect();
+        for episode in self.collector.rollouts(&mut self.algorithm, &seeds, ActMode::Explore)? {
             self.algorithm.store(&episode).map_err(algo_err)?;
             let returns = self.collector.observe(&episode)?;
             tally.add_episode(&episode, &returns);
@@ -521,7 +569,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CoreError> {
 
 impl<E, A, O, S> Trainer<E, A, O, S>
 where
-    E: Env,
+    E: Env + Send,
     A: Algorithm,
     O: OccupancyEstimator + Serialize + DeserializeOwned,
     S: ShadowReward,
@@ -558,7 +606,7 @@ where
 
     /// Restores a checkpoint written by [`Trainer::save_checkpoint`]. The
     /// checkpoint must come from the same configuration, except `epochs`, which
-    /// may be raised to train longer. A corrupted, truncated or mismatched file
+    /// may be raised to train longer, and `envs` and `threads`. A corrupted, truncated or mismatched file
     /// is an error naming the problem.
     ///
     /// # Errors
@@ -595,6 +643,10 @@ where
         let meta: CheckpointMeta<O> = serde_json::from_slice(sections[0]).map_err(|e| corrupt(e.to_string()))?;
         let mut expected = self.config.clone();
         expected.epochs = meta.config.epochs;
+        // Threads do not change the history; envs only batch the remaining
+        // rollouts differently (and `fmsr eval` runs on one environment).
+        expected.threads = meta.config.threads;
+        expected.envs = meta.config.envs;
         if meta.config != expected {
             return Err(CoreError::InvalidConfig {
                 key: "checkpoint".into(),

@@ -55,16 +55,25 @@ pub fn team_reach_trainer_with(
     seed: u64,
     epochs: usize,
 ) -> Trainer<TeamReach, AnyLearner> {
+    team_reach_trainer_config(kind, method, trainer_config(method, seed, epochs))
+}
+
+/// A trainer of `kind` and `method` on `config.num_envs()` TeamReach envs.
+pub fn team_reach_trainer_config(
+    kind: AlgorithmKind,
+    method: Method,
+    config: TrainerConfig,
+) -> Trainer<TeamReach, AnyLearner> {
     let env = team_reach(method);
-    let config = trainer_config(method, seed, epochs);
-    let parts = parts(&env, method, seed, config.gamma_for(env.spec().episode_len));
+    let parts = parts(&env, method, config.seed, config.gamma_for(env.spec().episode_len));
     let layout = parts.layout.clone();
     let learner = match kind {
         AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new()).unwrap()),
         AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, Matd3Config::new()).unwrap()),
         AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, MasacConfig::new()).unwrap()),
     };
-    Trainer::new(config, env, learner, layout).unwrap()
+    let envs = (0..config.num_envs()).map(|_| team_reach(method)).collect();
+    Trainer::with_envs(config, envs, learner, layout).unwrap()
 }
 
 /// A MADDPG trainer of `method` on TeamReach.

@@ -1,0 +1,65 @@
+//! One paper epoch of Dense+FMSR+IS on the block (rapier), with the paper's
+//! proportions: 25 cycles x 8 rollouts x 100 steps = 20k env steps and
+//! 25 cycles x 25 = 625 joint updates of the 6 agents (batch 256, 3 x 256),
+//! evaluation excluded. To fit a bench run it times `FMSR_EPOCH_CYCLES`
+//! cycles (default 5, i.e. 1/5 of both) and scales to the whole epoch.
+//!
+//! Settings, measured in one run:
+//! 1. one env on one thread (the trainer before vectorised rollouts);
+//! 2. 8 envs in lockstep (one batched policy call per step), stepped on all
+//!    cores, the agents' updates on all cores.
+//!
+//! The last line is `speedup X.XX` of setting 2 over setting 1.
+//!
+//! `cargo bench --bench paper_epoch`
+
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use fmsr::experiment::ExperimentConfig;
+use fmsr::prelude::*;
+
+const PAPER_CYCLES: usize = 25;
+
+/// Seconds of `cycles` cycles of the paper config with `envs` envs, `threads`
+/// stepping threads and `learner_threads` update threads.
+fn time_cycles(cycles: usize, envs: usize, threads: usize, learner_threads: usize) -> Result<(f64, EpochStats)> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/block_dense_fmsr_is.toml");
+    let mut config = ExperimentConfig::load(&path)?;
+    config.trainer.epochs = 1;
+    config.trainer.cycles = cycles;
+    config.trainer.eval_episodes = 0;
+    config.trainer.envs = Some(envs);
+    config.trainer.threads = Some(threads);
+    config.networks.threads = learner_threads;
+    let hands = (0..envs).map(|_| config.env_config().init()).collect::<Result<Vec<_>, _>>().context("Shadow Hand")?;
+    let mut trainer = config.build_trainer(hands)?;
+    let start = Instant::now();
+    let stats = trainer.run_epoch()?;
+    Ok((start.elapsed().as_secs_f64(), stats))
+}
+
+fn main() -> Result<()> {
+    if std::env::args().any(|a| a == "--list") {
+        return Ok(()); // `cargo test --benches` lists benches; nothing to list here
+    }
+    let cycles: usize = std::env::var("FMSR_EPOCH_CYCLES").ok().map(|v| v.parse()).transpose()?.unwrap_or(5);
+    let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+    let scale = PAPER_CYCLES as f64 / cycles as f64;
+    println!(
+        "paper epoch of Dense+FMSR+IS on the block: {cycles} of {PAPER_CYCLES} cycles timed, scaled x{scale:.1}; {cores} cores"
+    );
+    let mut epochs = Vec::new();
+    for (name, envs, threads) in [("1 env, 1 thread", 1, 1), ("8 envs, all cores", 8, cores)] {
+        let (secs, stats) = time_cycles(cycles, envs, threads, threads)?;
+        let epoch = secs * scale;
+        println!(
+            "{name}: {secs:.1} s for {} env steps and {} updates -> {epoch:.1} s per paper epoch \
+             ({:.0} env steps/s while collecting, {:.1} updates/s)",
+            stats.env_steps, stats.updates, stats.env_steps_per_sec, stats.updates_per_sec
+        );
+        epochs.push(epoch);
+    }
+    println!("speedup {:.2}", epochs[0] / epochs[1]);
+    Ok(())
+}
