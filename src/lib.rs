@@ -7,8 +7,8 @@
 //! | crate | what |
 //! |---|---|
 //! | [`graph`] (`fmsr-graph`) | graphs, doubly stochastic mixing matrices, consensus steps (eq. 8) |
-//! | [`core`] (`fmsr-core`) | `Env`/`Agent` traits, occupancy (eq. 1), shadow rewards (eqs. 7, 11-15), HER replay, trainer |
-//! | [`nn`] (`fmsr-nn`) | burn actor/critic networks and the multi-agent DDPG learner |
+//! | [`core`] (`fmsr-core`) | `Env`, `Policy`, `Algorithm`, `OccupancyEstimator`, `ShadowReward` traits, collector, occupancy (eq. 1), shadow rewards (eqs. 7, 11-15), HER replay, trainer |
+//! | [`nn`] (`fmsr-nn`) | burn actor/critic modules and the learners MADDPG, MATD3, MASAC |
 //! | [`envs`] (`fmsr-envs`) | the rapier3d Shadow Hand tasks and the `TeamReach` test env |
 //!
 //! ```
