@@ -16,8 +16,6 @@
 //! exploration noise is drawn per batch row).
 //!
 //! ```
-//!
-//! ```
 //! use fmsr_core::prelude::*;
 //! use fmsr_core::collector::Collector;
 //! # use fmsr_core::spec::{AgentSpec, StepOutcome};

@@ -2,9 +2,9 @@
 //! collect -> store -> update (with information sharing) -> evaluate -> checkpoint.
 //!
 //! Each cycle: `episodes_per_cycle` rollouts with the algorithm's exploration
-//! ([`Trainer::collect`]); each episode goes into the algorithm's storage and its
+//! (`Trainer::collect`); each episode goes into the algorithm's storage and its
 //! features update the occupancy estimate `lambda` (eq. 1); then the algorithm's
-//! updates of the cycle ([`Trainer::update`]), with every agent's reward `r_i`
+//! updates of the cycle (`Trainer::update`), with every agent's reward `r_i`
 //! (eq. 7) computed from the current `lambda` by the [`Collector`], and the
 //! information sharing the algorithm applies between its critic and actor steps
 //! ([`crate::sharing`]). At the end of an epoch the policy is evaluated on fresh
