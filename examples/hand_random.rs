@@ -4,7 +4,7 @@
 //!
 //! Run with `cargo run --release --example hand_random [episodes] [egg]`. The
 //! model (gymnasium-robotics 1.4.2) is fetched with pip into
-//! `target/fmsr-assets` (or `$FMSR_ASSETS_DIR`) on first use.
+//! the cache (`$FMSR_ASSETS_DIR`, else `~/.cache/fmsr`; `fmsr assets path`) on first use.
 
 use fmsr_core::spec::JointAction;
 use fmsr_core::{ContactReadout, Env};

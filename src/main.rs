@@ -29,6 +29,21 @@ enum Command {
     /// The main job: train the default experiment (block, Dense+FMSR+IS, rapier, quick budget),
     /// evaluate it and write the report.
     Run(RunArgs),
+    /// The Shadow Hand model cache (the model comes from the gymnasium-robotics wheel on PyPI).
+    #[command(subcommand)]
+    Assets(AssetsCommand),
+}
+
+#[derive(Debug, Subcommand)]
+enum AssetsCommand {
+    /// Download (once) and extract the model into the cache; prints the model folder.
+    Fetch {
+        /// Cache directory (default: `$FMSR_ASSETS_DIR`, `$XDG_CACHE_HOME/fmsr` or `~/.cache/fmsr`).
+        #[arg(long)]
+        dir: Option<PathBuf>,
+    },
+    /// Print the default cache directory.
+    Path,
 }
 
 #[derive(Debug, clap::Args)]
@@ -97,6 +112,15 @@ fn main() -> Result<()> {
         Command::Train(args) => train(&args).map(|_| ()),
         Command::Eval(args) => eval(&args),
         Command::Report(args) => report(&args.runs, &args.out),
+        Command::Assets(AssetsCommand::Fetch { dir }) => {
+            let assets = fmsr_envs::shadow_hand::assets::fetch_hand_assets(dir.as_deref())?;
+            println!("{}", assets.root.display());
+            Ok(())
+        }
+        Command::Assets(AssetsCommand::Path) => {
+            println!("{}", fmsr_envs::shadow_hand::assets::default_assets_dir()?.display());
+            Ok(())
+        }
         Command::Run(args) => {
             let name = ExperimentConfig::load(&args.config)?.name;
             let out = args.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(name));

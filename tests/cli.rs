@@ -157,3 +157,41 @@ fn every_algorithm_trains_on_the_hand() {
         assert_eq!(std::fs::read_to_string(run.join("metrics.jsonl")).unwrap().lines().count(), 1);
     }
 }
+
+/// Guards the model cache location (issue 12, item 1): with `FMSR_ASSETS_DIR`
+/// unset, the cache is the platform's (`$XDG_CACHE_HOME/fmsr`, else
+/// `$HOME/.cache/fmsr`), never inside a crate's source; the first fetch puts
+/// the model there. The wheel is copied from the test cache so no network is
+/// needed.
+#[test]
+fn the_model_cache_is_the_platform_cache() {
+    let home = tempfile::tempdir().unwrap();
+    let run = |args: &[&str], xdg: Option<&Path>| {
+        let mut cmd = Command::new(FMSR);
+        cmd.args(args).env_remove("FMSR_ASSETS_DIR").env("HOME", home.path()).env("RUST_BACKTRACE", "0");
+        match xdg {
+            Some(x) => cmd.env("XDG_CACHE_HOME", x),
+            None => cmd.env_remove("XDG_CACHE_HOME"),
+        };
+        cmd.output().unwrap()
+    };
+    let cache = home.path().join(".cache").join("fmsr");
+    let out = run(&["assets", "path"], None);
+    assert!(out.status.success(), "{}", text(&out));
+    assert_eq!(String::from_utf8_lossy(&out.stdout).trim(), cache.to_str().unwrap());
+    let xdg = home.path().join("xdg");
+    let out = run(&["assets", "path"], Some(&xdg));
+    assert_eq!(String::from_utf8_lossy(&out.stdout).trim(), xdg.join("fmsr").to_str().unwrap());
+
+    // Seed the new cache with the wheel of the test cache, then fetch: the model lands under HOME.
+    let wheel = fmsr_envs::shadow_hand::assets::WHEEL_NAME;
+    let test_cache = fmsr_envs::shadow_hand::assets::fetch_hand_assets(None).unwrap();
+    let source = test_cache.root.parent().unwrap().parent().unwrap().join(wheel);
+    std::fs::create_dir_all(&cache).unwrap();
+    std::fs::copy(&source, cache.join(wheel)).unwrap();
+    let out = run(&["assets", "fetch"], None);
+    assert!(out.status.success(), "{}", text(&out));
+    let root = PathBuf::from(String::from_utf8_lossy(&out.stdout).trim());
+    assert!(root.starts_with(&cache), "{}", root.display());
+    assert!(root.join("hand").join("manipulate_block_touch_sensors.xml").exists());
+}

@@ -4,8 +4,17 @@
 //! [`fetch_hand_assets`] runs `python3 -m pip download --no-deps gymnasium-robotics==1.4.2`
 //! into the cache directory, checks the wheel's sha256 against [`WHEEL_SHA256`],
 //! extracts `gymnasium_robotics/envs/assets/{hand,stls/hand,textures}/*` and the
-//! licence, and reuses the extracted files afterwards. The cache directory is, in
-//! order: the argument, `$FMSR_ASSETS_DIR`, or `<workspace>/target/fmsr-assets`.
+//! licence, and reuses the extracted files afterwards.
+//!
+//! **This downloads from PyPI on first use** (building a Shadow Hand env calls
+//! it). The explicit step is `fmsr assets fetch`; `fmsr assets path` prints the
+//! cache directory. Offline and without a cached model, the error names the
+//! command to run.
+//!
+//! The cache directory is, in order: the argument, `$FMSR_ASSETS_DIR`,
+//! `$XDG_CACHE_HOME/fmsr`, `$HOME/.cache/fmsr` — never a crate's source
+//! folder or cargo's directories, so it works the same for a registry or git
+//! dependency ([`default_assets_dir`]).
 
 use std::fs;
 use std::io::Read;
@@ -53,19 +62,30 @@ impl HandAssets {
     }
 }
 
-/// The default cache directory: `$FMSR_ASSETS_DIR`, else `<workspace>/target/fmsr-assets`.
-#[must_use]
-pub fn default_assets_dir() -> PathBuf {
-    match std::env::var_os(ASSETS_DIR_ENV) {
-        Some(dir) if !dir.is_empty() => PathBuf::from(dir),
-        _ => Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join("target").join("fmsr-assets"),
+/// The default cache directory: `$FMSR_ASSETS_DIR`, else the platform cache
+/// directory `$XDG_CACHE_HOME/fmsr` or `$HOME/.cache/fmsr` (relative or empty
+/// values are ignored, as the XDG specification says).
+///
+/// # Errors
+/// [`EnvError::AssetFetch`] when none of the variables gives an absolute path.
+pub fn default_assets_dir() -> Result<PathBuf, EnvError> {
+    let var = |name: &str| std::env::var_os(name).map(PathBuf::from).filter(|p| p.is_absolute());
+    if let Some(dir) = var(ASSETS_DIR_ENV) {
+        return Ok(dir);
     }
+    if let Some(cache) = var("XDG_CACHE_HOME") {
+        return Ok(cache.join("fmsr"));
+    }
+    var("HOME").map(|home| home.join(".cache").join("fmsr")).ok_or_else(|| EnvError::AssetFetch {
+        reason: "no cache directory: none of FMSR_ASSETS_DIR, XDG_CACHE_HOME, HOME is an absolute path".into(),
+        hint: format!("set {ASSETS_DIR_ENV} to a folder for the model, then run: fmsr assets fetch"),
+    })
 }
 
-/// The command that fetches the wheel into `dir` by hand.
+/// The commands that fetch the model into `dir` by hand.
 #[must_use]
 pub fn fetch_hint(dir: &Path) -> String {
-    format!("python3 -m pip download --no-deps {PACKAGE} -d {}", dir.display())
+    format!("fmsr assets fetch (or: python3 -m pip download --no-deps {PACKAGE} -d {}, then run again)", dir.display())
 }
 
 static FETCH_LOCK: Mutex<()> = Mutex::new(());
@@ -74,7 +94,10 @@ static FETCH_LOCK: Mutex<()> = Mutex::new(());
 /// returns where it is. Downloads with pip only when neither the extracted files
 /// nor the wheel are there. Safe to call from several threads and processes.
 pub fn fetch_hand_assets(dir: Option<&Path>) -> Result<HandAssets, EnvError> {
-    let dir = dir.map_or_else(default_assets_dir, Path::to_path_buf);
+    let dir = match dir {
+        Some(d) => d.to_path_buf(),
+        None => default_assets_dir()?,
+    };
     let assets = HandAssets { root: dir.join(EXTRACT_DIR).join("assets") };
     if dir.join(EXTRACT_DIR).join(COMPLETE_MARK).exists() {
         return Ok(assets);
@@ -187,6 +210,6 @@ mod tests {
         let hint = fetch_hint(Path::new("/some/cache"));
         assert!(hint.contains("pip download --no-deps gymnasium-robotics==1.4.2 -d /some/cache"));
         let err = EnvError::AssetFetch { reason: "pip download failed".into(), hint };
-        assert!(err.to_string().contains("To fetch it, run: python3 -m pip download"));
+        assert!(err.to_string().contains("To fetch it, run: fmsr assets fetch"), "{err}");
     }
 }

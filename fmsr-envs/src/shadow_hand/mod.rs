@@ -101,7 +101,8 @@ pub struct ShadowHandConfig {
     pub drop_height: f64,
     /// ... or farther than this from the palm centre (m, default 0.15).
     pub drop_distance: f64,
-    /// Where the model is cached (default: `$FMSR_ASSETS_DIR` or `<workspace>/target/fmsr-assets`).
+    /// Where the model is cached (default: `$FMSR_ASSETS_DIR`, else `$XDG_CACHE_HOME/fmsr` or
+    /// `~/.cache/fmsr`; see [`assets::default_assets_dir`]).
     pub assets_dir: Option<PathBuf>,
     /// Solver settings of the rapier backend.
     pub rapier: RapierSettings,
