@@ -195,3 +195,13 @@ fn the_model_cache_is_the_platform_cache() {
     assert!(root.starts_with(&cache), "{}", root.display());
     assert!(root.join("hand").join("manipulate_block_touch_sensors.xml").exists());
 }
+
+/// Guards issue 12, item 2: the binary built with `--features mujoco` carries
+/// an rpath to MuJoCo's library, so it starts without `LD_LIBRARY_PATH`
+/// (which Cargo sets for this test process, so it is removed here).
+#[cfg(feature = "mujoco")]
+#[test]
+fn the_mujoco_binary_starts_without_ld_library_path() {
+    let out = Command::new(FMSR).args(["assets", "path"]).env_remove("LD_LIBRARY_PATH").output().unwrap();
+    assert!(out.status.success(), "{}", text(&out));
+}
