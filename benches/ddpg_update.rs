@@ -27,7 +27,7 @@ const OBS_DIM: usize = 153;
 const GOAL_DIM: usize = 7;
 
 /// The Shadow Hand partition; actors observe their finger-ring neighbours'
-/// previous actions (the wrist observes none), as DESIGN.md 3.7.
+/// previous actions (the wrist observes none), as docs/design.md 3.7.
 fn layout() -> ObservationLayout {
     let names = ["wrist", "index", "middle", "ring", "little", "thumb"];
     let mut slot = 0;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Fetches MuJoCo 3.17.0 (the shared library of the PyPI wheel `mujoco==3.17.0`)
-# into <repo>/target/mujoco/lib for the `mujoco` feature of fmsr-envs (DESIGN.md 4).
+# into <repo>/target/mujoco/lib for the `mujoco` feature of fmsr-envs (docs/design.md 4).
 #
 #   scripts/setup_mujoco.sh            # then: cargo test --workspace --features mujoco
 #

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::CoreError;
 use crate::spec::{EnvSpec, JointAction, Observation};
 
-/// How an actor's input is assembled (DESIGN.md 3.2): its local observation,
+/// How an actor's input is assembled (docs/design.md 3.2): its local observation,
 /// the goal, and its graph neighbours' previous actions, in that order.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ObservationLayout {
@@ -115,7 +115,7 @@ impl ObservationLayout {
 }
 
 /// A batch of joint transitions with hindsight-relabelled goals, shared by all
-/// agents' updates (DESIGN.md 3.8). Matrices are row major, one row per sample.
+/// agents' updates (docs/design.md 3.8). Matrices are row major, one row per sample.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 pub struct Batch {
     /// Number of samples.
@@ -140,7 +140,7 @@ pub struct Batch {
     pub rewards: Vec<Vec<f32>>,
 }
 
-/// What information sharing mixes (DESIGN.md 3.7).
+/// What information sharing mixes (docs/design.md 3.7).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum ShareMode {

@@ -1,5 +1,5 @@
 //! Grasp-stability measures of the paper's section IV.C (eqs. 16-18, Tables I and II;
-//! DESIGN.md sections 5 and 3.9).
+//! docs/design.md sections 5 and 3.9).
 //!
 //! The measures are computed from the contacts between the hand and the object
 //! at one step ([`ObjectContacts`], read out by an environment that implements
@@ -98,7 +98,7 @@
 //!
 //! Unsuccessful episodes are classified as [`FailureType::Drop`] (the object left
 //! the hand) or [`FailureType::Incomplete`] (it stayed in the hand but did not
-//! reach the goal); the environment decides which (DESIGN.md 3.9).
+//! reach the goal); the environment decides which (docs/design.md 3.9).
 //! [`FailureCounts`] counts outcomes and gives Table II's columns
 //! ([`FailureRow`]).
 //!
@@ -715,7 +715,7 @@ impl StabilityRow {
     }
 }
 
-/// How an unsuccessful episode failed (paper Fig. 2, DESIGN.md 3.9).
+/// How an unsuccessful episode failed (paper Fig. 2, docs/design.md 3.9).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum FailureType {

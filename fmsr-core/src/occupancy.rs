@@ -1,5 +1,5 @@
 //! Estimates of the discounted state-action occupancy measure of the stability
-//! features (paper eq. 1, DESIGN.md 3.3).
+//! features (paper eq. 1, docs/design.md 3.3).
 //!
 //! For a feature `phi_k(s, a)` in `[0, 1]` and one episode `s_0, a_0, ..., s_{T-1}, a_{T-1}`,
 //!
@@ -80,7 +80,7 @@ impl Default for Averaging {
     }
 }
 
-/// The discounted occupancy estimator of DESIGN.md 3.3.
+/// The discounted occupancy estimator of docs/design.md 3.3.
 ///
 /// Before any episode is observed the estimate is 0 for every feature.
 ///

@@ -1,5 +1,5 @@
 //! One replay buffer of joint transitions with hindsight experience replay
-//! (HER, "future" strategy), shared by all agents (DESIGN.md 3.8).
+//! (HER, "future" strategy), shared by all agents (docs/design.md 3.8).
 //!
 //! Episodes of exactly `T` steps are stored whole. A batch samples `n` pairs
 //! `(episode, t)` uniformly; with probability `1 - 1/(1 + k)` the goal of a sample
@@ -47,7 +47,7 @@ impl HerConfig {
 }
 
 /// The replay storage and update schedule of the off-policy algorithms
-/// (defaults: HER baselines' and the paper's, DESIGN.md 3.10).
+/// (defaults: HER baselines' and the paper's, docs/design.md 3.10).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ReplayConfig {

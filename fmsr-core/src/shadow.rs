@@ -1,9 +1,9 @@
-//! Shadow rewards (paper eqs. 2, 7, 11-15; DESIGN.md 3.4-3.5).
+//! Shadow rewards (paper eqs. 2, 7, 11-15; docs/design.md 3.4-3.5).
 //!
 //! A shadow reward turns a concave utility `F_k(lambda_k)` of the occupancy of a
 //! stability feature into a per-step reward. We *maximise*
 //! `F_k(lambda) = log(lambda_k + 0.1)` (the paper writes `-log`, which would push
-//! the occupancy down; DESIGN.md 3.4). Two modes:
+//! the occupancy down; docs/design.md 3.4). Two modes:
 //!
 //! - [`ShadowMode::Gradient`] (default): the general-utility policy gradient. By
 //!   the chain rule `grad F(lambda) = sum_{s,a} dF/dlambda * grad lambda(s, a)`, so
@@ -45,7 +45,7 @@ pub enum ShadowMode {
     Value,
 }
 
-/// `F(lambda) = log(lambda + offset)` (eqs. 11-12 with the sign of DESIGN.md 3.4).
+/// `F(lambda) = log(lambda + offset)` (eqs. 11-12 with the sign of docs/design.md 3.4).
 ///
 /// ```
 /// use fmsr_core::shadow::{LogUtility, ShadowMode, ShadowReward};
@@ -123,7 +123,7 @@ fn one() -> f64 {
     1.0
 }
 
-/// Finger-specific reward assignment as data (paper eqs. 13-15, DESIGN.md 3.5).
+/// Finger-specific reward assignment as data (paper eqs. 13-15, docs/design.md 3.5).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RewardAssignment {

@@ -7,7 +7,7 @@ use crate::error::{CoreError, check_vector};
 
 /// One agent of a multi-agent environment (one finger, or the wrist).
 ///
-/// The agent owns `action_slots` of the joint action (DESIGN.md 3.1: the
+/// The agent owns `action_slots` of the joint action (docs/design.md 3.1: the
 /// partition is data, not code) and receives a local observation of
 /// `local_obs_dim` values (its own joints and touch sensors and the object).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -34,7 +34,7 @@ impl AgentSpec {
     }
 }
 
-/// The task reward of a goal-conditioned environment (DESIGN.md 3.6).
+/// The task reward of a goal-conditioned environment (docs/design.md 3.6).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum RewardType {
@@ -268,7 +268,7 @@ pub struct StepInfo {
     /// The stability features `phi_k(s_t, a_t)` in `[0, 1]`, in the order of
     /// [`EnvSpec::features`].
     pub features: Vec<f32>,
-    /// Whether the object has left the hand (a `drop` failure, DESIGN.md 3.9).
+    /// Whether the object has left the hand (a `drop` failure, docs/design.md 3.9).
     pub dropped: bool,
 }
 

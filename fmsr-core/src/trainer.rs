@@ -32,7 +32,7 @@ use crate::replay::Episode;
 use crate::shadow::{LogUtility, ShadowReward};
 use crate::spec::{StepInfo, StepOutcome};
 
-/// Settings of the training loop (defaults: the paper's, DESIGN.md 3.10). The
+/// Settings of the training loop (defaults: the paper's, docs/design.md 3.10). The
 /// algorithm's own settings (replay, batches, networks, exploration) live in
 /// its config.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

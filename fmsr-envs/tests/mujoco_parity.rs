@@ -1,5 +1,5 @@
 //! The MuJoCo Shadow Hand (feature `mujoco`, set-up: `scripts/setup_mujoco.sh`):
-//! the model facts of DESIGN.md 4, gymnasium's 153-value observation layout, and
+//! the model facts of docs/design.md 4, gymnasium's 153-value observation layout, and
 //! parity with (a) the rapier env and (b) the Python gymnasium-robotics env
 //! (only where `scripts/pyref/setup_venv.sh` has built its venv; skipped otherwise).
 #![cfg(feature = "mujoco")]

@@ -1,7 +1,7 @@
 //! Guards the Shadow Hand model as our rapier env loads it: the fetched
 //! gymnasium-robotics 1.4.2 files give 24 hand joints, 20 position actuators
 //! and 92 touch sensors; the agents, their action slots and observation sizes
-//! follow DESIGN.md 3.1; and the egg variant loads too. The model is fetched
+//! follow docs/design.md 3.1; and the egg variant loads too. The model is fetched
 //! with pip into the cache on first use (`cargo test` on a fresh machine).
 
 use fmsr_core::Env;

@@ -29,7 +29,7 @@ fn nonneg(v: f64) -> bool {
 }
 
 /// The networks, optimisers and input normalisers of every agent; defaults
-/// are HER baselines' (DESIGN.md 3.10): 3 x 256 hidden, Adam with learning
+/// are HER baselines' (docs/design.md 3.10): 3 x 256 hidden, Adam with learning
 /// rates 1e-3, inputs normalised and clipped to +-5.
 ///
 /// ```

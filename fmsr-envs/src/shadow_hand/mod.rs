@@ -1,5 +1,5 @@
 //! The Shadow Hand block and egg rotation tasks (rotation about Z only) with
-//! 92 touch sensors, with gymnasium-robotics' semantics (DESIGN.md 4).
+//! 92 touch sensors, with gymnasium-robotics' semantics (docs/design.md 4).
 //!
 //! The task ([`ShadowHand`]) is written against the small [`HandPhysics`] trait;
 //! [`RapierHand`] is the pure-Rust backend (the default), and a MuJoCo backend
@@ -107,7 +107,7 @@ pub struct ShadowHandConfig {
     /// Solver settings of the rapier backend.
     pub rapier: RapierSettings,
     /// The agents and the actuators each one owns; `None` is the paper's six
-    /// agents (DESIGN.md 3.1). Every actuator must be owned exactly once. An
+    /// agents (docs/design.md 3.1). Every actuator must be owned exactly once. An
     /// agent observes the joints and touch sensors of every finger (or the
     /// wrist/palm) it owns an actuator of.
     pub agents: Option<Vec<HandAgent>>,

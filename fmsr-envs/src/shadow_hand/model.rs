@@ -45,7 +45,7 @@ pub const ACTUATORS: [&str; 20] = [
 /// Name prefix of the model's joints, bodies, sites and actuators.
 pub const PREFIX: &str = "robot0:";
 
-/// One agent of the hand (DESIGN.md 3.1): its name, the joint-name prefix of
+/// One agent of the hand (docs/design.md 3.1): its name, the joint-name prefix of
 /// the joints it owns and the touch-sensor name stems it reads.
 #[derive(Debug, Clone, Copy)]
 pub struct AgentPart {

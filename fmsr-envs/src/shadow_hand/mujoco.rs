@@ -1,6 +1,6 @@
 //! The MuJoCo backend of the Shadow Hand (feature `mujoco`): MuJoCo 3.17 itself,
 //! through `mujoco-rs` 7.0.0, on the same cached gymnasium-robotics MJCF as the
-//! rapier backend (DESIGN.md 4). Only the physics differs; the task is
+//! rapier backend (docs/design.md 4). Only the physics differs; the task is
 //! [`super::ShadowHand`].
 //!
 //! MuJoCo loads the scene file as it is (includes, meshes, contact pairs,

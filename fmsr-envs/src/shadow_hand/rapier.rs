@@ -1,5 +1,5 @@
 //! The rapier3d backend of the Shadow Hand: `rapier3d-mjcf` loads the model,
-//! and this module fixes what it leaves out (DESIGN.md 4):
+//! and this module fixes what it leaves out (docs/design.md 4):
 //!
 //! - **includes** inside `<worldbody>`/`<asset>` are inlined first ([`super::model::inline_includes`]);
 //! - **contact filtering** follows MuJoCo's `(contype1 & conaffinity2) || (contype2 & conaffinity1)`:
