@@ -424,18 +424,50 @@ impl ReplayBuffer {
             actions,
             features,
         };
-        let ok = capacity > 0
-            && horizon > 0
-            && len <= capacity
-            && next < capacity
-            && buffer.global.len() >= len * (horizon + 1) * obs_dim
-            && buffer.achieved.len() >= len * (horizon + 1) * goal_dim
-            && buffer.desired.len() >= len * goal_dim
-            && buffer.actions.len() >= len * horizon * action_dim
-            && buffer.features.len() >= len * horizon * num_features
-            && buffer.locals.iter().zip(&buffer.local_dims).all(|(l, d)| l.len() >= len * (horizon + 1) * d)
-            && r.0.is_empty();
-        if ok { Ok(buffer) } else { Err("inconsistent sizes".into()) }
+        if !r.0.is_empty() {
+            return Err("trailing bytes".into());
+        }
+        buffer.check_consistency().map_err(|e| e.to_string())?;
+        Ok(buffer)
+    }
+
+    /// Checks that the stored arrays are as long as the counters say, so that
+    /// sampling can never index out of bounds (for buffers read back from a
+    /// checkpoint; overflowing sizes are errors too).
+    ///
+    /// # Errors
+    /// [`CoreError::InvalidConfig`] (key `replay buffer`) naming what is inconsistent.
+    pub fn check_consistency(&self) -> Result<(), CoreError> {
+        let bad = |reason: String| Err(CoreError::InvalidConfig { key: "replay buffer".into(), reason });
+        if self.capacity == 0 || self.horizon == 0 || self.len > self.capacity || self.next >= self.capacity {
+            return bad(format!(
+                "counters out of range (capacity {}, horizon {}, len {}, next {})",
+                self.capacity, self.horizon, self.len, self.next
+            ));
+        }
+        if self.local_dims.len() != self.locals.len() {
+            return bad("agents of the local observations differ".into());
+        }
+        let need = |steps: usize, dim: usize| self.len.checked_mul(steps).and_then(|v| v.checked_mul(dim));
+        let arrays = [
+            ("global observations", self.global.len(), need(self.horizon + 1, self.obs_dim)),
+            ("achieved goals", self.achieved.len(), need(self.horizon + 1, self.goal_dim)),
+            ("desired goals", self.desired.len(), need(1, self.goal_dim)),
+            ("actions", self.actions.len(), need(self.horizon, self.action_dim)),
+            ("features", self.features.len(), need(self.horizon, self.num_features)),
+        ];
+        let locals = self
+            .locals
+            .iter()
+            .zip(&self.local_dims)
+            .map(|(l, &d)| ("local observations", l.len(), need(self.horizon + 1, d)));
+        for (what, found, expected) in arrays.into_iter().chain(locals) {
+            match expected {
+                Some(e) if found >= e => {}
+                _ => return bad(format!("{what}: {found} values, the counters need {expected:?}")),
+            }
+        }
+        Ok(())
     }
 
     /// Whether this buffer holds episodes of `spec`'s shape.
@@ -570,5 +602,58 @@ mod tests {
         assert!(ReplayBuffer::from_bytes(&bytes[..bytes.len() - 3]).is_err());
         assert!(ReplayBuffer::from_bytes(b"nonsense").is_err());
         assert!(buffer.is_compatible(&spec));
+    }
+
+    /// Cases per fuzz property: small in `cargo test`, more with `FMSR_FUZZ_CASES`.
+    fn fuzz_cases() -> u32 {
+        std::env::var("FMSR_FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(256)
+    }
+
+    fn valid_bytes() -> Vec<u8> {
+        let mut buffer = ReplayBuffer::new(&spec(), 100).unwrap();
+        for e in 0..3 {
+            buffer.store(&episode(e)).unwrap();
+        }
+        buffer.to_bytes()
+    }
+
+    /// A buffer that reads back must also sample without panicking.
+    fn read_and_sample(bytes: &[u8]) {
+        if let Ok(buffer) = ReplayBuffer::from_bytes(bytes)
+            && buffer.is_compatible(&spec())
+        {
+            let layout = ObservationLayout::new(spec(), vec![vec![1], vec![0]]).unwrap();
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+            let _ = buffer.sample(8, &HerConfig::default(), &layout, &mut rng, &|_, _| 0.0, &|_, _, _| {});
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(fuzz_cases()))]
+
+        // Guards the replay reader against corrupted checkpoints: bit flips,
+        // truncations and random bytes give an error or a consistent buffer,
+        // never a panic or a huge allocation from a corrupted length field.
+        #[test]
+        fn corrupted_replay_bytes_never_panic(
+            flips in proptest::collection::vec((0usize..10_000, 0u8..8), 1..4),
+            cut in proptest::option::of(0usize..10_000),
+            noise in proptest::collection::vec(proptest::num::u8::ANY, 0..256),
+        ) {
+            let good = valid_bytes();
+            let mut bytes = good.clone();
+            for (at, bit) in flips {
+                let i = at % bytes.len();
+                bytes[i] ^= 1 << bit;
+            }
+            if let Some(c) = cut {
+                bytes.truncate(c % (good.len() + 1));
+            }
+            read_and_sample(&bytes);
+            let mut random = REPLAY_MAGIC.to_vec();
+            random.extend(&noise);
+            read_and_sample(&random);
+            read_and_sample(&noise);
+        }
     }
 }

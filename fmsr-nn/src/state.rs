@@ -100,10 +100,11 @@ impl Learner {
         for (i, (a, s)) in self.agents.iter().zip(state.agents).enumerate() {
             restored.push(restore_agent(i, a, s)?);
         }
-        if let Some(replay) = &state.replay
-            && !replay.is_compatible(self.layout.spec())
-        {
-            return Err(mismatch("replay buffer", "this environment's spec".into(), "another spec".into()));
+        if let Some(replay) = &state.replay {
+            if !replay.is_compatible(self.layout.spec()) {
+                return Err(mismatch("replay buffer", "this environment's spec".into(), "another spec".into()));
+            }
+            replay.check_consistency().map_err(|e| NnError::CorruptState { offset: 0, reason: e.to_string() })?;
         }
         if state.critic_norm.dim() != self.critic_norm.dim() {
             return Err(mismatch(
