@@ -4,6 +4,7 @@
 //! owner, the trainer (`trainer.gamma`), and is passed to the learners.
 
 use burn::config::Config;
+use serde::{Deserialize, Serialize};
 
 use crate::error::NnError;
 
@@ -100,6 +101,20 @@ impl NetworkConfig {
     }
 }
 
+/// Which actions of the other agents enter agent `i`'s actor loss
+/// `Q_i(x, g, a_1 .. mu_i(o_i) .. a_N)`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Teammates {
+    /// The joint action stored in the replay buffer (HER baselines' and
+    /// MADDPG's choice; default). Up to `random_eps` of them are random.
+    #[default]
+    Replay,
+    /// The teammates' current deterministic policies at the sampled
+    /// observations, without gradient.
+    Current,
+}
+
 /// MADDPG (HER baselines' DDPG per agent): deterministic actors, one critic
 /// each, exploration by Gaussian noise and random joint actions.
 ///
@@ -110,6 +125,9 @@ impl NetworkConfig {
 /// ```
 #[derive(Config, Debug, PartialEq)]
 pub struct MaddpgConfig {
+    /// Which teammates' actions enter the actor loss.
+    #[config(default = "Teammates::Replay")]
+    pub teammates: Teammates,
     /// Polyak coefficient of the target networks, which move once per cycle:
     /// `theta' <- polyak * theta' + (1 - polyak) * theta` (eq. 9).
     #[config(default = 0.95)]
@@ -150,6 +168,9 @@ impl MaddpgConfig {
 /// ```
 #[derive(Config, Debug, PartialEq)]
 pub struct Matd3Config {
+    /// Which teammates' actions enter the actor loss.
+    #[config(default = "Teammates::Replay")]
+    pub teammates: Teammates,
     /// Polyak coefficient of the target networks, which move once per cycle.
     #[config(default = 0.95)]
     pub polyak: f64,
@@ -202,6 +223,9 @@ impl Matd3Config {
 /// ```
 #[derive(Config, Debug, PartialEq)]
 pub struct MasacConfig {
+    /// Which teammates' actions enter the actor loss.
+    #[config(default = "Teammates::Replay")]
+    pub teammates: Teammates,
     /// Polyak coefficient of the target critics, which move once per cycle.
     #[config(default = 0.95)]
     pub polyak: f64,

@@ -58,6 +58,7 @@ impl AgentNets {
 
 /// A sampled batch on the device: normalised inputs, joint actions in
 /// agent-major column order, rewards and Q-target bounds.
+#[derive(Clone)]
 pub(crate) struct BatchTensors {
     pub(crate) n: usize,
     /// `[x, g]` normalised, `n x (obs + goal)`.
@@ -602,6 +603,18 @@ impl Learner {
         let mut holder = ParamHolder { agents: &mut self.agents };
         self.sharing.mix_parameters(group, &mut holder)?;
         Ok(losses)
+    }
+
+    /// `b` with the sampled joint actions replaced by every agent's current
+    /// action `squash(head_j(o_j), j)` (no gradient): the teammates' actions of
+    /// [`crate::Teammates::Current`].
+    pub(crate) fn with_current_actions(
+        &mut self,
+        b: &BatchTensors,
+        squash: impl Fn(Tensor<2>, usize) -> Tensor<2> + Sync,
+    ) -> Result<BatchTensors, NnError> {
+        let actions = self.per_agent(|j, a| Ok(squash(a.actor.valid().forward(b.x_now[j].clone()), j)))?;
+        Ok(BatchTensors { actions: Tensor::cat(actions, 1), ..b.clone() })
     }
 
     /// Where each agent's block lies in the agent-major joint action.

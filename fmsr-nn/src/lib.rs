@@ -76,7 +76,7 @@ mod workers;
 pub use any::{AlgorithmKind, AnyLearner};
 /// burn's device type, re-exported for [`LearnerParts::with_device`] (e.g. `Device::flex()`).
 pub use burn::tensor::Device;
-pub use config::{MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig};
+pub use config::{MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, Teammates};
 pub use error::NnError;
 pub use learner::LearnerParts;
 pub use maddpg::{Maddpg, StepLosses};

@@ -20,7 +20,7 @@ use fmsr_core::algorithm::{Algorithm, RewardModel, UpdateStats};
 use fmsr_core::policy::{ActMode, Policy, PolicyOutput};
 use fmsr_core::replay::Episode;
 
-use crate::config::MaddpgConfig;
+use crate::config::{MaddpgConfig, Teammates};
 use crate::error::NnError;
 use crate::explore;
 use crate::learner::{BatchTensors, Learner, LearnerParts};
@@ -76,7 +76,7 @@ impl Maddpg {
         let l = &mut self.learner;
         let next = target_actions(l, b)?;
         let critic = l.critic_step(b, next, None)?;
-        let actor = actor_step(l, b, self.config.action_l2)?;
+        let actor = actor_step(l, b, self.config.action_l2, self.config.teammates)?;
         l.steps += 1;
         Ok((critic, actor))
     }
@@ -162,7 +162,20 @@ pub(crate) fn target_actions(l: &mut Learner, b: &BatchTensors) -> Result<Tensor
 
 /// The deterministic policy-gradient step of MADDPG and MATD3 (eq. 5 with
 /// HER's action penalty), on agent `i`'s first critic.
-pub(crate) fn actor_step(l: &mut Learner, b: &BatchTensors, action_l2: f64) -> Result<Vec<f32>, NnError> {
+pub(crate) fn actor_step(
+    l: &mut Learner,
+    b: &BatchTensors,
+    action_l2: f64,
+    teammates: Teammates,
+) -> Result<Vec<f32>, NnError> {
+    let current;
+    let b = match teammates {
+        Teammates::Replay => b,
+        Teammates::Current => {
+            current = l.with_current_actions(b, |head, _| tanh(head))?;
+            &current
+        }
+    };
     let joint = l.joint();
     l.actor_step(b, |i, actor, critics, b| {
         let mu = tanh(actor.forward(Tensor::from_inner(b.x_now[i].clone())));

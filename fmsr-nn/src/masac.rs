@@ -26,7 +26,7 @@ use fmsr_core::policy::{ActMode, Policy, PolicyOutput};
 use fmsr_core::replay::Episode;
 use serde::{Deserialize, Serialize};
 
-use crate::config::MasacConfig;
+use crate::config::{MasacConfig, Teammates};
 use crate::error::NnError;
 use crate::explore::{gaussian, randomize};
 use crate::learner::{Learner, LearnerParts, matrix, scalar};
@@ -138,7 +138,15 @@ impl Masac {
         let dims: Vec<usize> = (0..na).map(|i| self.learner.action_dim(i)).collect();
         let mean_logp = Mutex::new(vec![0.0f32; na]);
         let joint = self.learner.joint();
-        let actor = self.learner.actor_step(&b, |i, actor: &Actor, critics, b| {
+        let current;
+        let b = match self.config.teammates {
+            Teammates::Replay => &b,
+            Teammates::Current => {
+                current = self.learner.with_current_actions(&b, |head, j| head.narrow(1, 0, dims[j]).tanh())?;
+                &current
+            }
+        };
+        let actor = self.learner.actor_step(b, |i, actor: &Actor, critics, b| {
             let head = actor.forward(Tensor::from_inner(b.x_now[i].clone()));
             let (a, lp) = sample(head, eps[i].clone(), dims[i], bounds);
             let input = joint.with(i, a, b);

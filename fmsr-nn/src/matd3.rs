@@ -58,7 +58,7 @@ impl Matd3 {
         let critic = l.critic_step(&b, smoothed.clamp(-1.0, 1.0), None)?;
         l.steps += 1;
         let actor = if l.steps.is_multiple_of(self.config.policy_delay as u64) {
-            Some(actor_step(l, &b, self.config.action_l2)?)
+            Some(actor_step(l, &b, self.config.action_l2, self.config.teammates)?)
         } else {
             None
         };
