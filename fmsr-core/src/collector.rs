@@ -170,47 +170,6 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
         self.envs.len()
     }
 
-    /// Runs one episode from `seed`, acting with `policy` in `mode`, and calls
-    /// `on_step(env, outcome)` after every step (e.g. to read contacts).
-    ///
-    /// # Errors
-    /// Errors of the environment or the policy, and observations or features
-    /// of the wrong shape.
-    pub fn rollout<P: Policy>(
-        &mut self,
-        policy: &mut P,
-        seed: u64,
-        mode: ActMode,
-        on_step: &mut dyn FnMut(&E, &StepOutcome),
-    ) -> Result<Episode, CoreError> {
-        let spec = self.envs[0].spec().clone();
-        check_policy(policy, &spec)?;
-        let env = &mut self.envs[0];
-        let mut obs = env.reset(seed).map_err(env_err)?;
-        obs.validate(&spec)?;
-        let mut prev = JointAction::zeros(spec.action_dim);
-        let mut episode = Episode::with_capacity(spec.episode_len);
-        for _ in 0..spec.episode_len {
-            let inputs = self.layout.actor_inputs(&obs, &prev);
-            let out = policy.act(&inputs, 1, mode).map_err(|e| CoreError::Algorithm(Box::new(e)))?;
-            let joint = JointAction::from_agents(&spec.agents, &out.actions)?;
-            let outcome = env.step(&joint).map_err(env_err)?;
-            check_outcome(&outcome, &spec)?;
-            on_step(env, &outcome);
-            if !out.log_probs.is_empty() {
-                episode.log_probs.push(out.log_probs.iter().map(|l| l.first().copied().unwrap_or(0.0)).collect());
-            }
-            episode.observations.push(obs);
-            episode.actions.push(joint.clone());
-            episode.infos.push(outcome.info);
-            obs = outcome.observation;
-            prev = joint;
-        }
-        episode.observations.push(obs);
-        self.env_steps += spec.episode_len as u64;
-        Ok(episode)
-    }
-
     /// Records a finished training episode: its features update the occupancy
     /// estimate (eq. 1). Returns each agent's undiscounted return (task and
     /// shadow rewards, eq. 7) under the updated estimate.
@@ -289,13 +248,38 @@ impl<E: Env + Send, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
         check_policy(policy, &spec)?;
         let mut episodes = Vec::with_capacity(seeds.len());
         for chunk in seeds.chunks(self.envs.len()) {
-            episodes.extend(self.lockstep(policy, chunk, mode)?);
+            episodes.extend(self.lockstep(policy, chunk, mode, &mut |_, _| {})?);
         }
         Ok(episodes)
     }
 
-    /// One episode on each of the first `seeds.len()` environments.
-    fn lockstep<P: Policy>(&mut self, policy: &mut P, seeds: &[u64], mode: ActMode) -> Result<Vec<Episode>, CoreError> {
+    /// Runs one episode from `seed`, acting with `policy` in `mode`, and calls
+    /// `on_step(env, outcome)` after every step (e.g. to read contacts).
+    ///
+    /// # Errors
+    /// Errors of the environment or the policy, and observations or features
+    /// of the wrong shape.
+    pub fn rollout<P: Policy>(
+        &mut self,
+        policy: &mut P,
+        seed: u64,
+        mode: ActMode,
+        on_step: &mut dyn FnMut(&E, &StepOutcome),
+    ) -> Result<Episode, CoreError> {
+        check_policy(policy, self.envs[0].spec())?;
+        let mut episodes = self.lockstep(policy, &[seed], mode, on_step)?;
+        episodes.pop().ok_or(CoreError::Dimension { what: "episodes", expected: 1, found: 0 })
+    }
+
+    /// One episode on each of the first `seeds.len()` environments, calling
+    /// `on_step(env, outcome)` after every step of every environment.
+    fn lockstep<P: Policy>(
+        &mut self,
+        policy: &mut P,
+        seeds: &[u64],
+        mode: ActMode,
+        on_step: &mut dyn FnMut(&E, &StepOutcome),
+    ) -> Result<Vec<Episode>, CoreError> {
         let spec = self.envs[0].spec().clone();
         let k = seeds.len();
         let mut obs = self.map_envs(k, |env, e| env.reset(seeds[e]))?;
@@ -313,6 +297,7 @@ impl<E: Env + Send, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
             let outcomes = self.map_envs(k, |env, e| env.step(&joints[e]))?;
             for (e, (outcome, joint)) in outcomes.into_iter().zip(joints).enumerate() {
                 check_outcome(&outcome, &spec)?;
+                on_step(&self.envs[e], &outcome);
                 let episode = &mut episodes[e];
                 if !out.log_probs.is_empty() {
                     episode.log_probs.push(out.log_probs.iter().map(|l| l.get(e).copied().unwrap_or(0.0)).collect());

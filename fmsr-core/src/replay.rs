@@ -324,113 +324,7 @@ impl ReplayBuffer {
     }
 }
 
-const REPLAY_MAGIC: &[u8; 8] = b"FMSRRPLY";
-
-fn put_u64(out: &mut Vec<u8>, v: usize) {
-    out.extend_from_slice(&(v as u64).to_le_bytes());
-}
-
-fn put_f32s(out: &mut Vec<u8>, v: &[f32]) {
-    put_u64(out, v.len());
-    for x in v {
-        out.extend_from_slice(&x.to_le_bytes());
-    }
-}
-
-struct Reader<'a>(&'a [u8]);
-
-impl Reader<'_> {
-    fn u64(&mut self) -> Result<usize, String> {
-        if self.0.len() < 8 {
-            return Err("truncated".into());
-        }
-        let (head, rest) = self.0.split_at(8);
-        self.0 = rest;
-        usize::try_from(u64::from_le_bytes(head.try_into().expect("8 bytes"))).map_err(|e| e.to_string())
-    }
-
-    fn f32s(&mut self) -> Result<Vec<f32>, String> {
-        let n = self.u64()?;
-        let bytes = n.checked_mul(4).filter(|&b| b <= self.0.len()).ok_or("truncated array")?;
-        let (head, rest) = self.0.split_at(bytes);
-        self.0 = rest;
-        Ok(head.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect())
-    }
-}
-
 impl ReplayBuffer {
-    /// The buffer as compact little-endian bytes (for checkpoints).
-    #[must_use]
-    pub fn to_bytes(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(64 + 4 * (self.global.len() + self.achieved.len() + self.actions.len()));
-        out.extend_from_slice(REPLAY_MAGIC);
-        for v in [
-            self.obs_dim,
-            self.goal_dim,
-            self.action_dim,
-            self.num_features,
-            self.horizon,
-            self.capacity,
-            self.len,
-            self.next,
-        ] {
-            put_u64(&mut out, v);
-        }
-        put_u64(&mut out, self.local_dims.len());
-        for &d in &self.local_dims {
-            put_u64(&mut out, d);
-        }
-        for v in [&self.global, &self.achieved, &self.desired, &self.actions, &self.features] {
-            put_f32s(&mut out, v);
-        }
-        for l in &self.locals {
-            put_f32s(&mut out, l);
-        }
-        out
-    }
-
-    /// Reads a buffer written by [`ReplayBuffer::to_bytes`], checking its consistency.
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, String> {
-        if bytes.len() < 8 || &bytes[..8] != REPLAY_MAGIC {
-            return Err("bad magic".into());
-        }
-        let mut r = Reader(&bytes[8..]);
-        let mut dims = [0usize; 8];
-        for d in &mut dims {
-            *d = r.u64()?;
-        }
-        let [obs_dim, goal_dim, action_dim, num_features, horizon, capacity, len, next] = dims;
-        let agents = r.u64()?;
-        if agents > 1024 {
-            return Err(format!("{agents} agents"));
-        }
-        let local_dims = (0..agents).map(|_| r.u64()).collect::<Result<Vec<_>, _>>()?;
-        let (global, achieved, desired, actions, features) = (r.f32s()?, r.f32s()?, r.f32s()?, r.f32s()?, r.f32s()?);
-        let locals = (0..agents).map(|_| r.f32s()).collect::<Result<Vec<_>, _>>()?;
-        let buffer = Self {
-            obs_dim,
-            goal_dim,
-            action_dim,
-            local_dims,
-            num_features,
-            horizon,
-            capacity,
-            len,
-            next,
-            global,
-            locals,
-            achieved,
-            desired,
-            actions,
-            features,
-        };
-        if !r.0.is_empty() {
-            return Err("trailing bytes".into());
-        }
-        buffer.check_consistency().map_err(|e| e.to_string())?;
-        Ok(buffer)
-    }
-
     /// Checks that the stored arrays are as long as the counters say, so that
     /// sampling can never index out of bounds (for buffers read back from a
     /// checkpoint; overflowing sizes are errors too).
@@ -590,18 +484,32 @@ mod tests {
         ));
     }
 
+    /// Reads a buffer the way learners restore it: postcard, then the consistency check.
+    fn decode(bytes: &[u8]) -> Result<ReplayBuffer, String> {
+        let buffer: ReplayBuffer = postcard::from_bytes(bytes).map_err(|e| e.to_string())?;
+        buffer.check_consistency().map_err(|e| e.to_string())?;
+        Ok(buffer)
+    }
+
+    // Guards the serde round trip of checkpoints and the consistency check behind it.
     #[test]
-    fn bytes_round_trip_and_reject_corruption() {
+    fn serde_round_trip_and_inconsistent_buffers_rejected() {
         let spec = spec();
         let mut buffer = ReplayBuffer::new(&spec, 3 * T).unwrap();
         for e in 0..2 {
             buffer.store(&episode(e)).unwrap();
         }
-        let bytes = buffer.to_bytes();
-        assert_eq!(ReplayBuffer::from_bytes(&bytes).unwrap(), buffer);
-        assert!(ReplayBuffer::from_bytes(&bytes[..bytes.len() - 3]).is_err());
-        assert!(ReplayBuffer::from_bytes(b"nonsense").is_err());
+        let bytes = postcard::to_stdvec(&buffer).unwrap();
+        assert_eq!(decode(&bytes).unwrap(), buffer);
+        assert!(decode(&bytes[..bytes.len() - 3]).is_err());
         assert!(buffer.is_compatible(&spec));
+        let mut short = buffer.clone();
+        short.actions.truncate(5);
+        assert!(short.check_consistency().is_err());
+        let mut huge = buffer;
+        huge.len = usize::MAX;
+        huge.capacity = usize::MAX;
+        assert!(huge.check_consistency().is_err(), "overflowing sizes are errors");
     }
 
     /// Cases per fuzz property: small in `cargo test`, more with `FMSR_FUZZ_CASES`.
@@ -614,12 +522,12 @@ mod tests {
         for e in 0..3 {
             buffer.store(&episode(e)).unwrap();
         }
-        buffer.to_bytes()
+        postcard::to_stdvec(&buffer).unwrap()
     }
 
     /// A buffer that reads back must also sample without panicking.
     fn read_and_sample(bytes: &[u8]) {
-        if let Ok(buffer) = ReplayBuffer::from_bytes(bytes)
+        if let Ok(buffer) = decode(bytes)
             && buffer.is_compatible(&spec())
         {
             let layout = ObservationLayout::new(spec(), vec![vec![1], vec![0]]).unwrap();
@@ -631,7 +539,7 @@ mod tests {
     proptest::proptest! {
         #![proptest_config(proptest::prelude::ProptestConfig::with_cases(fuzz_cases()))]
 
-        // Guards the replay reader against corrupted checkpoints: bit flips,
+        // Guards the replay reader of checkpoints (postcard + check_consistency): bit flips,
         // truncations and random bytes give an error or a consistent buffer,
         // never a panic or a huge allocation from a corrupted length field.
         #[test]
@@ -650,7 +558,7 @@ mod tests {
                 bytes.truncate(c % (good.len() + 1));
             }
             read_and_sample(&bytes);
-            let mut random = REPLAY_MAGIC.to_vec();
+            let mut random = good[..good.len().min(16)].to_vec();
             random.extend(&noise);
             read_and_sample(&random);
             read_and_sample(&noise);

@@ -341,6 +341,11 @@ impl Learner {
         })
     }
 
+    /// Agent `agent`'s networks.
+    fn agent(&self, agent: usize) -> Result<&AgentNets, NnError> {
+        self.agents.get(agent).ok_or(NnError::UnknownAgent { agent, agents: self.agents.len() })
+    }
+
     /// Number of agents.
     pub(crate) fn num_agents(&self) -> usize {
         self.agents.len()
@@ -668,7 +673,7 @@ impl Learner {
 
     /// Agent `i`'s actor trunk, flattened (what sharing mixes), for inspection.
     pub(crate) fn actor_trunk(&self, agent: usize) -> Result<Vec<f32>, NnError> {
-        let a = self.agents.get(agent).ok_or(NnError::UnknownAgent { agent, agents: self.agents.len() })?;
+        let a = self.agent(agent)?;
         let mut out = Vec::new();
         crate::net::flatten(&a.actor.trunk.iter().collect::<Vec<_>>(), &mut out)?;
         Ok(out)
@@ -690,7 +695,7 @@ impl Learner {
 
     /// All parameters of agent `agent`'s online actor and first critic.
     pub(crate) fn params(&self, agent: usize) -> Result<(Vec<f32>, Vec<f32>), NnError> {
-        let a = self.agents.get(agent).ok_or(NnError::UnknownAgent { agent, agents: self.agents.len() })?;
+        let a = self.agent(agent)?;
         Ok((a.actor.to_flat()?, a.critics.nets[0].to_flat()?))
     }
 
@@ -703,7 +708,7 @@ impl Learner {
         actions: &[f32],
         n: usize,
     ) -> Result<Vec<f32>, NnError> {
-        let a = self.agents.get(agent).ok_or(NnError::UnknownAgent { agent, agents: self.agents.len() })?;
+        let a = self.agent(agent)?;
         let spec = self.layout.spec();
         check_values(|| "q_values obs".into(), obs, n * spec.obs_dim)?;
         check_values(|| "q_values goals".into(), goals, n * spec.goal_dim)?;
@@ -729,7 +734,7 @@ impl Learner {
 
     /// Agent `i`'s first critic's trunk, flattened.
     pub(crate) fn critic_trunk(&self, agent: usize) -> Result<Vec<f32>, NnError> {
-        let a = self.agents.get(agent).ok_or(NnError::UnknownAgent { agent, agents: self.agents.len() })?;
+        let a = self.agent(agent)?;
         let mut out = Vec::new();
         let c = &a.critics.nets[0];
         let trunk: Vec<&Linear> = c.hidden.iter().skip(1).collect();
