@@ -156,7 +156,7 @@ pub fn evaluate_run<E: Env + ContactReadout + Send>(
 ) -> Result<EvalReport, ExperimentError> {
     let start = Instant::now();
     let mut trainer = config.build_trainer(vec![env])?;
-    trainer.load_checkpoint(&dir.checkpoint())?;
+    trainer.load_checkpoint_without_storage(&dir.checkpoint())?;
     let seeds = config.eval.seeds();
     let threshold = config.eval.threshold;
     let mut outcomes = FailureCounts::new();

@@ -128,21 +128,6 @@ impl EvalConfig {
     }
 }
 
-/// How a run keeps its state.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct RunConfig {
-    /// Store the replay buffer in checkpoints, so a resumed run is identical
-    /// to an uninterrupted one (large for long runs).
-    pub checkpoint_replay: bool,
-}
-
-impl Default for RunConfig {
-    fn default() -> Self {
-        Self { checkpoint_replay: true }
-    }
-}
-
 /// One experiment; see the [module docs](self).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -193,9 +178,6 @@ pub struct ExperimentConfig {
     /// The test set.
     #[serde(default)]
     pub eval: EvalConfig,
-    /// Checkpointing.
-    #[serde(default)]
-    pub run: RunConfig,
 }
 
 fn default_device() -> String {

@@ -162,9 +162,8 @@ pub fn train<E: Env + Send>(
     }
     write_atomic(&dir.config(), config.to_toml()?.as_bytes())?;
     dir.write_metrics(trainer.history())?;
-    let replay = config.run.checkpoint_replay;
     trainer.train(|t, stats| {
-        t.save_checkpoint(&dir.checkpoint(), replay)?;
+        t.save_checkpoint(&dir.checkpoint())?;
         dir.write_metrics(t.history())?;
         on_epoch(stats);
         Ok(())

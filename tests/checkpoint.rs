@@ -1,8 +1,8 @@
 //! Guards reproducibility and checkpoints (issue 3, item 6): two runs with the
 //! same seed give identical statistics on the CPU backend, whatever the number
 //! of threads stepping the vectorised environments; a run resumed from a
-//! checkpoint (with its replay buffer) continues exactly as the uninterrupted
-//! run; corrupted, truncated or mismatched checkpoints are clear errors.
+//! checkpoint (with its replay buffer read back from the replay log, wrapped
+//! or not) continues exactly as the uninterrupted run; corrupted, truncated or mismatched checkpoints are clear errors.
 
 mod common;
 
@@ -43,28 +43,73 @@ fn stepping_threads_do_not_change_the_history() {
     assert_eq!(one[1].env_steps, 2 * (10 * 4 + 20) * 20);
 }
 
+/// A MADDPG Dense+FMSR+IS trainer on TeamReach whose replay holds `capacity` episodes.
+fn trainer_with_capacity(seed: u64, epochs: usize, capacity: usize) -> Trainer<TeamReach, AnyLearner> {
+    let method = Method::DenseFmsrIs;
+    let config = common::trainer_config(method, seed, epochs);
+    let env = common::team_reach(method);
+    let mut parts = common::parts(&env, method, seed, config.gamma_for(env.spec().episode_len));
+    parts.replay.buffer_size = capacity * env.spec().episode_len;
+    let layout = parts.layout.clone();
+    let learner = AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new()).unwrap());
+    Trainer::new(config, env, learner, layout).unwrap()
+}
+
+fn segments(dir: &std::path::Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir.join("checkpoint.replay"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
 #[test]
 fn resumed_run_matches_uninterrupted_run() {
+    // 20 episodes an epoch: a replay of 5000 episodes never wraps, one of 30
+    // wraps in the second epoch and lets the log prune its first segment.
+    for capacity in [5000, 30] {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("checkpoint.bin");
+
+        let mut full = trainer_with_capacity(7, 4, capacity);
+        full.train(|_, _| Ok(())).unwrap();
+
+        let mut first = trainer_with_capacity(7, 3, capacity);
+        first.train(|t, _| t.save_checkpoint(&path)).unwrap();
+        drop(first);
+        let kept = segments(dir.path());
+        let expected: Vec<String> = if capacity == 30 { vec![20, 40] } else { vec![0, 20, 40] }
+            .into_iter()
+            .map(|first| format!("{first:020}.seg"))
+            .collect();
+        assert_eq!(kept, expected, "capacity {capacity}");
+
+        // A fresh process would build the same trainer from the same config, with
+        // more epochs, and load the checkpoint and the replay log.
+        let mut resumed = trainer_with_capacity(7, 4, capacity);
+        resumed.load_checkpoint(&path).unwrap();
+        assert_eq!(resumed.epoch(), 3);
+        resumed.train(|_, _| Ok(())).unwrap();
+
+        let a: Vec<_> = full.history().iter().map(learning_stats).collect();
+        let b: Vec<_> = resumed.history().iter().map(learning_stats).collect();
+        assert_eq!(a, b, "capacity {capacity}");
+    }
+}
+
+#[test]
+fn a_missing_replay_segment_is_a_clear_error() {
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("run").join("checkpoint.bin");
-
-    let mut full = team_reach_trainer(Method::DenseFmsrIs, 7, 3);
-    full.train(|_, _| Ok(())).unwrap();
-
-    let mut first = team_reach_trainer(Method::DenseFmsrIs, 7, 2);
-    first.train(|t, _| t.save_checkpoint(&path, true)).unwrap();
-    drop(first);
-
-    // A fresh process would build the same trainer from the same config, with
-    // more epochs, and load the checkpoint.
-    let mut resumed = team_reach_trainer(Method::DenseFmsrIs, 7, 3);
-    resumed.load_checkpoint(&path).unwrap();
-    assert_eq!(resumed.epoch(), 2);
-    resumed.train(|_, _| Ok(())).unwrap();
-
-    let a: Vec<_> = full.history().iter().map(learning_stats).collect();
-    let b: Vec<_> = resumed.history().iter().map(learning_stats).collect();
-    assert_eq!(a, b);
+    let path = dir.path().join("checkpoint.bin");
+    let mut t = trainer_with_capacity(2, 2, 5000);
+    t.train(|t, _| t.save_checkpoint(&path)).unwrap();
+    std::fs::remove_file(dir.path().join("checkpoint.replay").join(format!("{:020}.seg", 20))).unwrap();
+    let mut fresh = trainer_with_capacity(2, 2, 5000);
+    let err = fresh.load_checkpoint(&path).unwrap_err();
+    assert!(err.to_string().contains("lacks episode 20"), "{err}");
+    // Evaluating needs no replay.
+    fresh.load_checkpoint_without_storage(&path).unwrap();
 }
 
 #[test]
@@ -72,7 +117,7 @@ fn bad_checkpoints_are_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("checkpoint.bin");
     let mut t = team_reach_trainer(Method::Dense, 3, 1);
-    t.train(|t, _| t.save_checkpoint(&path, false)).unwrap();
+    t.train(|t, _| t.save_checkpoint(&path)).unwrap();
     let good = std::fs::read(&path).unwrap();
 
     let mut fresh = team_reach_trainer(Method::Dense, 3, 1);

@@ -2,7 +2,8 @@
 //! tiny budget on the rapier Shadow Hand writes every file of a run and a report;
 //! `--resume` continues a run; bad configs, and settings that contradict their
 //! owner (`method`, `algorithm`), are rejected before the run directory exists
-//! with a message that names the key; each algorithm trains on the hand.
+//! with a message that names the key; each algorithm trains on the hand; a
+//! run killed at any moment resumes to the uninterrupted run's history.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -91,7 +92,7 @@ fn bad_configs_are_rejected_naming_the_key() {
     let tmp = tempfile::tempdir().unwrap();
     type Edit = fn(String) -> String;
     let cases: [(Edit, &str); 13] = [
-        (|t| t + "[run]\ncheckpoint_replays = true\n", "checkpoint_replays"),
+        (|t| t + "[run]\ncheckpoint_replay = false\n", "`run`"),
         (|t| t.replace("batch_size = 32", "batch_size = \"many\""), "batch_size"),
         (|t| t.replace("hidden = 32", "hiden = 32"), "networks.hiden"),
         // One owner per setting: the method owns the task reward, shadow rewards and sharing.
@@ -155,6 +156,103 @@ fn every_algorithm_trains_on_the_hand() {
         assert!(out.status.success(), "{algorithm}: {}", text(&out));
         assert!(std::fs::read_to_string(run.join("config.toml")).unwrap().contains(algorithm));
         assert_eq!(std::fs::read_to_string(run.join("metrics.jsonl")).unwrap().lines().count(), 1);
+    }
+}
+
+/// The epochs of a run's `metrics.jsonl` without wall-clock timings.
+fn learning_history(run: &Path) -> Vec<serde_json::Value> {
+    let text = std::fs::read_to_string(run.join("metrics.jsonl")).unwrap();
+    text.lines()
+        .map(|line| {
+            let mut v: serde_json::Value = serde_json::from_str(line).unwrap();
+            for timing in ["seconds", "env_steps_per_sec", "updates_per_sec"] {
+                v.as_object_mut().unwrap().remove(timing);
+            }
+            v
+        })
+        .collect()
+}
+
+/// Guards runs that never lose data (issue 12, item 5): a run killed with
+/// SIGKILL at pseudo-random moments, each time also left with the debris of a
+/// crash inside a checkpoint (a torn temporary checkpoint, a replay segment the
+/// checkpoint does not count yet), and resumed, ends with exactly the history
+/// and the replay log of an uninterrupted run.
+#[test]
+fn killed_runs_resume_to_the_uninterrupted_history() {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = tiny_config(tmp.path(), "");
+    let (full, killed) = (tmp.path().join("full"), tmp.path().join("killed"));
+    let args = |run: &Path| {
+        ["train", "--config", config.to_str().unwrap(), "--seed", "5", "--epochs", "6", "--out", run.to_str().unwrap()]
+            .map(str::to_owned)
+            .to_vec()
+    };
+    let start = std::time::Instant::now();
+    let out = Command::new(FMSR).args(args(&full)).output().unwrap();
+    assert!(out.status.success(), "{}", text(&out));
+    let run_seconds = start.elapsed().as_secs_f64();
+
+    let (mut state, mut kills) = (0x2545_F491_4F6C_DD1Du64, 0);
+    loop {
+        let mut a = args(&killed);
+        if killed.join("checkpoint.bin").exists() {
+            a.push("--resume".into());
+        }
+        let mut child = Command::new(FMSR).args(&a).stdout(std::process::Stdio::null()).spawn().unwrap();
+        state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        let delay = run_seconds * (0.1 + 0.4 * (state >> 11) as f64 / (1u64 << 53) as f64);
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs_f64(delay);
+        let status = loop {
+            if let Some(status) = child.try_wait().unwrap() {
+                break Some(status);
+            }
+            if std::time::Instant::now() >= deadline {
+                break None;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        };
+        match status {
+            Some(status) => {
+                assert!(status.success(), "the resumed run failed");
+                break;
+            }
+            None => {
+                child.kill().unwrap(); // SIGKILL
+                child.wait().unwrap();
+                kills += 1;
+                leave_crash_debris(&full, &killed);
+            }
+        }
+        assert!(kills < 40, "the run never finished");
+    }
+    assert!(kills >= 2, "only {kills} kills: the test did not interrupt the run");
+    assert_eq!(learning_history(&killed), learning_history(&full));
+    let segments = |run: &Path| {
+        let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(run.join("checkpoint.replay"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "seg"))
+            .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read(&p).unwrap()))
+            .collect();
+        files.sort();
+        files
+    };
+    assert_eq!(segments(&killed), segments(&full), "the replay logs differ");
+}
+
+/// What a kill inside a checkpoint write leaves: a torn temporary checkpoint
+/// and the next replay segment already written (the uninterrupted run's, which
+/// is byte for byte what the killed run would have written).
+fn leave_crash_debris(full: &Path, killed: &Path) {
+    let Ok(bytes) = std::fs::read(full.join("checkpoint.bin")) else { return };
+    let _ = std::fs::create_dir_all(killed.join("checkpoint.replay"));
+    std::fs::write(killed.join(".checkpoint.bin.tmp4242"), &bytes[..bytes.len() / 2]).unwrap();
+    let epochs = std::fs::read_to_string(killed.join("metrics.jsonl")).map_or(0, |t| t.lines().count());
+    // The tiny config stores 2 episodes an epoch.
+    let next = format!("{:020}.seg", 2 * epochs);
+    if let Ok(segment) = std::fs::read(full.join("checkpoint.replay").join(&next)) {
+        std::fs::write(killed.join("checkpoint.replay").join(next), segment).unwrap();
     }
 }
 

@@ -1,5 +1,5 @@
 //! Guards the readers of everything a run keeps against corrupted input: the
-//! TOML config loader and the checkpoint reader get random bytes, truncations
+//! TOML config loader, the checkpoint reader and the replay log's reader get random bytes, truncations
 //! and bit flips of valid files, and answer with a typed error (or, for a
 //! config, a valid config) every time: never a panic. Case counts are small
 //! in `cargo test`; `FMSR_FUZZ_CASES=N` runs more.
@@ -30,14 +30,14 @@ fn corrupt(bytes: &[u8], flips: &[(usize, u8)], cut: Option<usize>) -> Vec<u8> {
     out
 }
 
-/// A valid checkpoint (with replay) of a one-epoch TeamReach run, written once.
+/// A valid checkpoint (and its replay log) of a one-epoch TeamReach run, written once.
 fn checkpoint() -> &'static (tempfile::TempDir, Vec<u8>) {
     static CHECKPOINT: OnceLock<(tempfile::TempDir, Vec<u8>)> = OnceLock::new();
     CHECKPOINT.get_or_init(|| {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("checkpoint.bin");
         let mut t = common::team_reach_trainer(Method::DenseFmsrIs, 1, 1);
-        t.train(|t, _| t.save_checkpoint(&path, true)).unwrap();
+        t.train(|t, _| t.save_checkpoint(&path)).unwrap();
         let bytes = std::fs::read(&path).unwrap();
         (dir, bytes)
     })
@@ -80,5 +80,25 @@ proptest! {
             let result = fresh.load_checkpoint(&path);
             prop_assert!(result.is_err(), "a corrupted checkpoint was accepted");
         }
+    }
+
+    #[test]
+    fn corrupted_replay_segments_are_errors_not_panics(
+        flips in proptest::collection::vec((0usize..1 << 24, 0u8..8), 1..4),
+        cut in proptest::option::of(0usize..1 << 24),
+    ) {
+        let (dir, good) = checkpoint();
+        let segment = dir.path().join("checkpoint.replay").join(format!("{:020}.seg", 0));
+        let segment_bytes = std::fs::read(&segment).unwrap();
+        let bad = corrupt(&segment_bytes, &flips, cut);
+        prop_assume!(bad != segment_bytes);
+        let case = tempfile::tempdir().unwrap();
+        std::fs::write(case.path().join("checkpoint.bin"), good).unwrap();
+        std::fs::create_dir(case.path().join("checkpoint.replay")).unwrap();
+        std::fs::write(case.path().join("checkpoint.replay").join(format!("{:020}.seg", 0)),
+                       bad).unwrap();
+        let mut fresh = common::team_reach_trainer(Method::DenseFmsrIs, 1, 1);
+        let result = fresh.load_checkpoint(&case.path().join("checkpoint.bin"));
+        prop_assert!(result.is_err(), "a corrupted replay segment was accepted");
     }
 }

@@ -62,4 +62,15 @@ pub trait Algorithm: Policy {
     /// shape or algorithm is an error, never a panic. Storage absent from the
     /// bytes is left as it is.
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), Self::Error>;
+
+    /// How many of the most recently stored episodes the storage can still
+    /// sample from (a replay buffer's capacity in episodes; 0 for storage that is
+    /// emptied by every update). The trainer's replay log keeps that many on disk.
+    fn storage_capacity(&self) -> usize;
+
+    /// Puts the storage in the state it had after `total` episodes were
+    /// [stored](Algorithm::store), given the last `min(total, storage_capacity())`
+    /// of them in store order (read back from the replay log). Unlike `store`,
+    /// this learns nothing from them (normalisers were restored with the state).
+    fn restore_storage(&mut self, total: u64, episodes: &[Episode]) -> Result<(), Self::Error>;
 }

@@ -186,6 +186,42 @@ impl ReplayBuffer {
 
     /// Stores one episode, overwriting the oldest when full.
     pub fn store(&mut self, episode: &Episode) -> Result<(), CoreError> {
+        self.check_shape(episode)?;
+        self.write_slot(self.next, episode);
+        self.next = (self.next + 1) % self.capacity;
+        self.len = (self.len + 1).min(self.capacity);
+        Ok(())
+    }
+
+    /// Puts the buffer in the state it had after `total` episodes were stored,
+    /// given the last `min(total, capacity)` of them in store order (what a
+    /// replay log keeps): every episode lands in the slot it had, so sampling
+    /// continues exactly as before.
+    ///
+    /// # Errors
+    /// [`CoreError::InvalidConfig`] (key `replay log`) when the number of
+    /// episodes is not `min(total, capacity)`; [`CoreError::EpisodeShape`] for an
+    /// episode of another shape. The buffer is unchanged on error.
+    pub fn restore_log(&mut self, total: u64, episodes: &[Episode]) -> Result<(), CoreError> {
+        let kept = usize::try_from(total).map_or(self.capacity, |t| t.min(self.capacity));
+        if episodes.len() != kept {
+            return Err(CoreError::InvalidConfig {
+                key: "replay log".into(),
+                reason: format!("{} episodes for {total} stored into {} slots", episodes.len(), self.capacity),
+            });
+        }
+        episodes.iter().try_for_each(|e| self.check_shape(e))?;
+        let capacity = self.capacity as u64;
+        let first = total - kept as u64;
+        for (k, episode) in episodes.iter().enumerate() {
+            self.write_slot(((first + k as u64) % capacity) as usize, episode);
+        }
+        self.next = (total % capacity) as usize;
+        self.len = kept;
+        Ok(())
+    }
+
+    fn check_shape(&self, episode: &Episode) -> Result<(), CoreError> {
         let t = self.horizon;
         let shape = |what, expected, found| {
             if expected == found { Ok(()) } else { Err(CoreError::EpisodeShape { what, expected, found }) }
@@ -208,8 +244,12 @@ impl ReplayBuffer {
         for i in &episode.infos {
             shape("feature values", self.num_features, i.features.len())?;
         }
+        Ok(())
+    }
 
-        let slot = self.next;
+    /// Writes a checked episode into `slot`.
+    fn write_slot(&mut self, slot: usize, episode: &Episode) {
+        let t = self.horizon;
         let write = |dst: &mut Vec<f32>, per_episode: usize, src: &mut dyn Iterator<Item = &f32>| {
             let start = slot * per_episode;
             if dst.len() < start + per_episode {
@@ -231,9 +271,6 @@ impl ReplayBuffer {
         write(&mut self.desired, self.goal_dim, &mut episode.observations[0].desired_goal.iter());
         write(&mut self.actions, t * self.action_dim, &mut episode.actions.iter().flat_map(|a| a.0.iter()));
         write(&mut self.features, t * self.num_features, &mut episode.infos.iter().flat_map(|i| i.features.iter()));
-        self.next = (self.next + 1) % self.capacity;
-        self.len = (self.len + 1).min(self.capacity);
-        Ok(())
     }
 
     fn achieved_at(&self, ep: usize, t: usize) -> &[f32] {
@@ -413,6 +450,27 @@ mod tests {
             actions: (0..T).map(|t| JointAction(vec![t as f32, ef, -(t as f32)])).collect(),
             infos: (0..T).map(|t| StepInfo { features: vec![(t % 2) as f32], ..StepInfo::default() }).collect(),
             log_probs: Vec::new(),
+        }
+    }
+
+    proptest::proptest! {
+        // Guards resuming from the replay log: the last `min(total, capacity)`
+        // episodes put back in place give the buffer the uninterrupted run had.
+        #[test]
+        fn restoring_the_log_rebuilds_the_stored_buffer(capacity in 1usize..6, total in 0usize..15) {
+            let spec = spec();
+            let mut stored = ReplayBuffer::new(&spec, capacity * T).unwrap();
+            (0..total).for_each(|e| stored.store(&episode(e)).unwrap());
+            let kept: Vec<Episode> = (total.saturating_sub(capacity)..total).map(episode).collect();
+            let mut restored = ReplayBuffer::new(&spec, capacity * T).unwrap();
+            restored.restore_log(total as u64, &kept).unwrap();
+            proptest::prop_assert_eq!(&restored, &stored);
+            restored.store(&episode(99)).unwrap();
+            stored.store(&episode(99)).unwrap();
+            proptest::prop_assert_eq!(&restored, &stored);
+            let mut short = ReplayBuffer::new(&spec, capacity * T).unwrap();
+            proptest::prop_assert!(short.restore_log(total as u64 + 1, &kept).is_err() || total >= capacity);
+            proptest::prop_assert!(short.restore_log(total as u64, &kept[..kept.len().saturating_sub(1)]).is_err() || kept.is_empty());
         }
     }
 

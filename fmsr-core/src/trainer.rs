@@ -9,9 +9,10 @@
 //! information sharing the algorithm applies between its critic and actor steps
 //! ([`crate::sharing`]). At the end of an epoch the policy is evaluated on fresh
 //! seeded episodes ([`Trainer::evaluate`]); the caller of [`Trainer::train`]
-//! writes the checkpoint.
+//! writes the checkpoint ([`Trainer::save_checkpoint`]), which keeps the stored
+//! episodes in an append-only [replay log](crate::replay_log).
 
-use std::io::{Read, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -27,8 +28,10 @@ use crate::config::ShadowConfig;
 use crate::env::Env;
 use crate::error::CoreError;
 use crate::occupancy::{DiscountedOccupancy, OccupancyEstimator};
+use crate::persist;
 use crate::policy::ActMode;
 use crate::replay::Episode;
+use crate::replay_log::ReplayLog;
 use crate::shadow::{LogUtility, ShadowReward};
 use crate::spec::{StepInfo, StepOutcome};
 
@@ -193,6 +196,8 @@ struct TrainerState {
     rng: ChaCha8Rng,
     updates: u64,
     history: Vec<EpochStats>,
+    /// Episodes handed to [`Algorithm::store`] so far.
+    stored_episodes: u64,
 }
 
 /// The running sums of one epoch.
@@ -248,6 +253,7 @@ pub struct Trainer<E, A, O = DiscountedOccupancy, S = LogUtility> {
     collector: Collector<E, O, S>,
     algorithm: A,
     state: TrainerState,
+    log: ReplayLog,
 }
 
 /// A well-mixed 64-bit hash (splitmix64), used to derive evaluation seeds.
@@ -318,9 +324,14 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
                 found: algorithm.num_agents(),
             });
         }
-        let state =
-            TrainerState { epoch: 0, rng: ChaCha8Rng::seed_from_u64(config.seed), updates: 0, history: Vec::new() };
-        Ok(Self { config, collector, algorithm, state })
+        let state = TrainerState {
+            epoch: 0,
+            rng: ChaCha8Rng::seed_from_u64(config.seed),
+            updates: 0,
+            history: Vec::new(),
+            stored_episodes: 0,
+        };
+        Ok(Self { config, collector, algorithm, state, log: ReplayLog::default() })
     }
 
     /// The configuration.
@@ -449,7 +460,9 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
             self.algorithm.store(&episode).map_err(algo_err)?;
             let returns = self.collector.observe(&episode)?;
             tally.add_episode(&episode, &returns);
+            self.log.push(episode, self.algorithm.storage_capacity());
         }
+        self.state.stored_episodes = self.log.stored();
         Ok(())
     }
 
@@ -532,11 +545,15 @@ fn accumulate_features(infos: &[StepInfo], acc: &mut [f64]) {
 }
 
 const MAGIC: &[u8; 8] = b"FMSRCKPT";
-const VERSION: u32 = 2;
+/// Version 3: the [`persist`] framing; the replay lives in the replay log.
+const VERSION: u32 = 3;
 
-/// FNV-1a, 64 bit: a checksum that detects corrupted checkpoints.
-fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+/// A checkpoint file: the trainer's part as JSON (the configuration's tagged
+/// enums need a self-describing format), the algorithm's as its own bytes.
+#[derive(Serialize, Deserialize)]
+struct CheckpointFile {
+    meta: String,
+    algorithm: Vec<u8>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -575,72 +592,60 @@ where
     S: ShadowReward,
 {
     /// Writes a checkpoint of everything training needs to continue: the
-    /// algorithm's state (with its replay storage if `include_storage`), the
-    /// trainer's RNG, counters and history, and the occupancy estimate. With the
-    /// storage, resuming continues exactly as an uninterrupted run.
+    /// algorithm's state (networks, optimisers, normalisers, RNG), the trainer's
+    /// RNG, counters and history, and the occupancy estimate, to `path`; and the
+    /// episodes stored since the previous checkpoint to the replay log beside it
+    /// ([`ReplayLog::dir`]). Resuming continues exactly as an uninterrupted run.
+    /// Every file is written atomically, in an order that leaves a loadable
+    /// checkpoint whenever the process is killed (see [`crate::replay_log`]).
     ///
     /// # Errors
     /// I/O errors, and errors of the algorithm's `save_state`.
-    pub fn save_checkpoint(&self, path: &Path, include_storage: bool) -> Result<(), CoreError> {
+    pub fn save_checkpoint(&mut self, path: &Path) -> Result<(), CoreError> {
+        let dir = ReplayLog::dir(path);
+        self.log.flush(&dir)?;
         let meta = CheckpointMeta {
             config: self.config.clone(),
             state: self.state.clone(),
             occupancy: self.collector.occupancy(),
             env_steps: self.collector.env_steps(),
         };
-        let meta =
-            serde_json::to_vec(&meta).map_err(|e| CoreError::Corrupt { path: path.into(), reason: e.to_string() })?;
-        let algorithm = self.algorithm.save_state(include_storage).map_err(algo_err)?;
-        let mut body = Vec::with_capacity(meta.len() + algorithm.len() + 16);
-        for section in [&meta, &algorithm] {
-            body.extend_from_slice(&(section.len() as u64).to_le_bytes());
-            body.extend_from_slice(section);
-        }
-        let mut out = Vec::with_capacity(body.len() + 20);
-        out.extend_from_slice(MAGIC);
-        out.extend_from_slice(&VERSION.to_le_bytes());
-        out.extend_from_slice(&fnv1a(&body).to_le_bytes());
-        out.extend_from_slice(&body);
-        write_atomic(path, &out)
+        let corrupt = |reason: String| CoreError::Corrupt { path: path.into(), reason };
+        let meta = serde_json::to_string(&meta).map_err(|e| corrupt(e.to_string()))?;
+        let algorithm = self.algorithm.save_state(false).map_err(algo_err)?;
+        let bytes =
+            persist::encode(MAGIC, VERSION, &CheckpointFile { meta, algorithm }).map_err(|e| corrupt(e.to_string()))?;
+        write_atomic(path, &bytes)?;
+        ReplayLog::prune(&dir, self.window_start())
     }
 
-    /// Restores a checkpoint written by [`Trainer::save_checkpoint`]. The
-    /// checkpoint must come from the same configuration, except `epochs`, which
-    /// may be raised to train longer, and `envs` and `threads`. A corrupted, truncated or mismatched file
-    /// is an error naming the problem.
+    /// Restores a checkpoint written by [`Trainer::save_checkpoint`], with the
+    /// algorithm's storage read back from the replay log. The checkpoint must
+    /// come from the same configuration, except `epochs`, which may be raised to
+    /// train longer, and `envs` and `threads`. A corrupted, truncated or
+    /// mismatched file is an error naming the problem.
     ///
     /// # Errors
-    /// [`CoreError::Io`], [`CoreError::Corrupt`], [`CoreError::InvalidConfig`]
-    /// (another configuration) or the algorithm's error (another shape).
+    /// [`CoreError::Io`], [`CoreError::Corrupt`] (also for a damaged or missing
+    /// replay log), [`CoreError::InvalidConfig`] (another configuration) or the
+    /// algorithm's error (another shape).
     pub fn load_checkpoint(&mut self, path: &Path) -> Result<(), CoreError> {
+        self.load_checkpoint_without_storage(path)?;
+        let (from, to) = (self.window_start(), self.state.stored_episodes);
+        let episodes = ReplayLog::read(&ReplayLog::dir(path), from, to)?;
+        self.algorithm.restore_storage(to, &episodes).map_err(algo_err)
+    }
+
+    /// As [`Trainer::load_checkpoint`] but leaves the algorithm's storage as it
+    /// is and reads no replay log: enough to evaluate the policy, not to train on.
+    ///
+    /// # Errors
+    /// As [`Trainer::load_checkpoint`].
+    pub fn load_checkpoint_without_storage(&mut self, path: &Path) -> Result<(), CoreError> {
         let corrupt = |reason: String| CoreError::Corrupt { path: path.into(), reason };
-        let mut bytes = Vec::new();
-        std::fs::File::open(path)
-            .and_then(|mut f| f.read_to_end(&mut bytes))
-            .map_err(|source| CoreError::Io { path: path.into(), source })?;
-        if bytes.len() < 20 || &bytes[..8] != MAGIC {
-            return Err(corrupt("not an fmsr checkpoint (bad magic)".into()));
-        }
-        let version = u32::from_le_bytes(bytes[8..12].try_into().map_err(|_| corrupt("short header".into()))?);
-        if version != VERSION {
-            return Err(corrupt(format!("checkpoint version {version}, this build reads {VERSION}")));
-        }
-        let sum = u64::from_le_bytes(bytes[12..20].try_into().map_err(|_| corrupt("short header".into()))?);
-        let body = &bytes[20..];
-        if fnv1a(body) != sum {
-            return Err(corrupt("checksum mismatch (truncated or corrupted file)".into()));
-        }
-        let mut sections = Vec::with_capacity(2);
-        let mut rest = body;
-        for _ in 0..2 {
-            let (len, tail) = rest.split_at_checked(8).ok_or_else(|| corrupt("truncated section header".into()))?;
-            let len = u64::from_le_bytes(len.try_into().map_err(|_| corrupt("short length".into()))?);
-            let len = usize::try_from(len).map_err(|_| corrupt("section length overflows".into()))?;
-            let (section, tail) = tail.split_at_checked(len).ok_or_else(|| corrupt("truncated section".into()))?;
-            sections.push(section);
-            rest = tail;
-        }
-        let meta: CheckpointMeta<O> = serde_json::from_slice(sections[0]).map_err(|e| corrupt(e.to_string()))?;
+        let bytes = std::fs::read(path).map_err(|source| CoreError::Io { path: path.into(), source })?;
+        let file: CheckpointFile = persist::decode(MAGIC, VERSION, &bytes).map_err(|e| corrupt(e.to_string()))?;
+        let meta: CheckpointMeta<O> = serde_json::from_str(&file.meta).map_err(|e| corrupt(e.to_string()))?;
         let mut expected = self.config.clone();
         expected.epochs = meta.config.epochs;
         // Threads do not change the history; envs only batch the remaining
@@ -656,9 +661,15 @@ where
         if meta.occupancy.estimate().len() != self.env().spec().features.len() {
             return Err(corrupt("occupancy has a different number of features".into()));
         }
-        self.algorithm.load_state(sections[1]).map_err(algo_err)?;
+        self.algorithm.load_state(&file.algorithm).map_err(algo_err)?;
         self.collector.restore(meta.occupancy, meta.env_steps);
+        self.log = ReplayLog::resumed(meta.state.stored_episodes);
         self.state = meta.state;
         Ok(())
+    }
+
+    /// The store index of the oldest episode the algorithm's storage still holds.
+    fn window_start(&self) -> u64 {
+        self.state.stored_episodes.saturating_sub(self.algorithm.storage_capacity() as u64)
     }
 }

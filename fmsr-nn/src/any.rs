@@ -110,4 +110,12 @@ impl Algorithm for AnyLearner {
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), NnError> {
         each!(self, l => l.load_state(bytes))
     }
+
+    fn storage_capacity(&self) -> usize {
+        each!(self, l => l.storage_capacity())
+    }
+
+    fn restore_storage(&mut self, total: u64, episodes: &[Episode]) -> Result<(), NnError> {
+        each!(self, l => l.restore_storage(total, episodes))
+    }
 }

@@ -391,6 +391,16 @@ impl Learner {
         self.replay.store(episode).map_err(|e| NnError::Replay { reason: e.to_string() })
     }
 
+    /// The replay buffer's capacity in episodes.
+    pub(crate) fn storage_capacity(&self) -> usize {
+        self.replay.capacity_episodes()
+    }
+
+    /// [`fmsr_core::Algorithm::restore_storage`] for the replay buffer.
+    pub(crate) fn restore_storage(&mut self, total: u64, episodes: &[Episode]) -> Result<(), NnError> {
+        self.replay.restore_log(total, episodes).map_err(|e| NnError::Replay { reason: e.to_string() })
+    }
+
     /// Samples a batch with HER, updates the normalisers with it (as HER
     /// baselines do) and puts it on the device. `None` while the buffer is empty.
     pub(crate) fn sample(&mut self, rewards: &dyn RewardModel) -> Result<Option<BatchTensors>, NnError> {

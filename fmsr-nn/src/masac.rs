@@ -263,4 +263,12 @@ impl Algorithm for Masac {
         }
         Ok(())
     }
+
+    fn storage_capacity(&self) -> usize {
+        self.learner.storage_capacity()
+    }
+
+    fn restore_storage(&mut self, total: u64, episodes: &[Episode]) -> Result<(), NnError> {
+        self.learner.restore_storage(total, episodes)
+    }
 }

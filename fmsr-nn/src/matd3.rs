@@ -107,4 +107,12 @@ impl Algorithm for Matd3 {
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), NnError> {
         self.learner.load("matd3", bytes).map(|_| ())
     }
+
+    fn storage_capacity(&self) -> usize {
+        self.learner.storage_capacity()
+    }
+
+    fn restore_storage(&mut self, total: u64, episodes: &[Episode]) -> Result<(), NnError> {
+        self.learner.restore_storage(total, episodes)
+    }
 }

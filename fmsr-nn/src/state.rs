@@ -1,5 +1,5 @@
-//! The learners' saved state: one serde structure encoded with `postcard`,
-//! behind a magic number and an FNV-1a checksum, so a truncated or corrupted
+//! The learners' saved state: one serde structure in the framing of
+//! [`fmsr_core::persist`] (postcard behind a magic number, version and checksum), so a truncated or corrupted
 //! file is an error, never a panic. `f32`/`f64` values are stored bit for bit,
 //! so a restored learner continues exactly as the saved one would have.
 //!
@@ -10,6 +10,7 @@
 
 use burn::optim::ModuleOptimizer;
 use burn::tensor::Bytes;
+use fmsr_core::persist::{self, FormatError};
 use fmsr_core::replay::ReplayBuffer;
 use rand_chacha::ChaCha8Rng;
 use serde::de::DeserializeOwned;
@@ -20,35 +21,27 @@ use crate::learner::{AgentNets, Learner};
 use crate::net::{Critic, Critics};
 use crate::normalizer::Normalizer;
 
-const MAGIC: &[u8; 8] = b"FMSRNN\0\x02";
+const MAGIC: &[u8; 8] = b"FMSRNNST";
 
-fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
-}
+/// The version of [`LearnerState`]'s layout.
+const STATE_FORMAT: u32 = 3;
 
-/// `MAGIC`, the checksum of the body, then the body.
+/// The header of [`fmsr_core::persist`], then the postcard body.
 pub(crate) fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, NnError> {
-    let body = postcard::to_stdvec(value).map_err(|e| NnError::Backend { what: "state", reason: e.to_string() })?;
-    let mut out = Vec::with_capacity(body.len() + 16);
-    out.extend_from_slice(MAGIC);
-    out.extend_from_slice(&fnv1a(&body).to_le_bytes());
-    out.extend_from_slice(&body);
-    Ok(out)
+    persist::encode(MAGIC, STATE_FORMAT, value).map_err(|e| NnError::Backend { what: "state", reason: e.to_string() })
 }
 
 /// The inverse of [`encode`].
 pub(crate) fn decode<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, NnError> {
-    let corrupt = |offset, reason: &str| NnError::CorruptState { offset, reason: reason.into() };
-    if bytes.len() < 16 || &bytes[..8] != MAGIC {
-        return Err(corrupt(0, "not an fmsr-nn learner state (bad magic)"));
-    }
-    let mut sum = [0u8; 8];
-    sum.copy_from_slice(&bytes[8..16]);
-    let body = &bytes[16..];
-    if fnv1a(body) != u64::from_le_bytes(sum) {
-        return Err(corrupt(8, "checksum mismatch (truncated or corrupted state)"));
-    }
-    postcard::from_bytes(body).map_err(|e| corrupt(16, &e.to_string()))
+    persist::decode(MAGIC, STATE_FORMAT, bytes).map_err(|e| {
+        let offset = match e {
+            FormatError::Magic { .. } | FormatError::Encode(_) => 0,
+            FormatError::Version { .. } => 8,
+            FormatError::Checksum => 12,
+            FormatError::Body(_) => persist::HEADER_LEN,
+        };
+        NnError::CorruptState { offset, reason: format!("learner state: {e}") }
+    })
 }
 
 impl Learner {
@@ -70,7 +63,6 @@ impl Learner {
             })
             .collect::<Result<Vec<_>, NnError>>()?;
         let state = LearnerState {
-            format: STATE_FORMAT,
             algorithm: algorithm.to_owned(),
             agents,
             critic_norm: self.critic_norm.clone(),
@@ -87,9 +79,6 @@ impl Learner {
         let state: LearnerState = crate::state::decode(bytes)?;
         let mismatch =
             |what: &str, expected: String, found: String| NnError::StateMismatch { what: what.into(), expected, found };
-        if state.format != STATE_FORMAT {
-            return Err(mismatch("format", STATE_FORMAT.to_string(), state.format.to_string()));
-        }
         if state.algorithm != algorithm {
             return Err(mismatch("algorithm", algorithm.into(), state.algorithm));
         }
@@ -125,8 +114,6 @@ impl Learner {
     }
 }
 
-const STATE_FORMAT: u32 = 2;
-
 #[derive(Serialize, Deserialize)]
 struct AgentState {
     actor: Vec<f32>,
@@ -140,7 +127,6 @@ struct AgentState {
 
 #[derive(Serialize, Deserialize)]
 struct LearnerState {
-    format: u32,
     algorithm: String,
     agents: Vec<AgentState>,
     critic_norm: Normalizer,
