@@ -39,6 +39,7 @@
 //! occupancy estimate and the critics alike.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
@@ -462,6 +463,16 @@ impl ExperimentConfig {
     /// # Errors
     /// [`ExperimentError`] naming the key of the first setting that does not fit `env`.
     pub fn build_trainer<E: Env + Send>(&self, envs: Vec<E>) -> Result<Trainer<E, AnyLearner>, ExperimentError> {
+        self.build_worker_trainer(envs, Arc::new(SingleProcess))
+    }
+
+    /// As [`ExperimentConfig::build_trainer`], as one of `comm.workers()`
+    /// worker processes of one run (the trainer and the learner share `comm`).
+    pub fn build_worker_trainer<E: Env + Send>(
+        &self,
+        envs: Vec<E>,
+        comm: Arc<dyn Communicator>,
+    ) -> Result<Trainer<E, AnyLearner>, ExperimentError> {
         let spec = envs
             .first()
             .map(|e| e.spec().clone())
@@ -482,6 +493,7 @@ impl ExperimentConfig {
         let parts =
             LearnerParts::new(layout.clone(), networks, self.replay, trainer_config.gamma_for(spec.episode_len))
                 .with_sharing(sharing)
+                .with_communicator(Box::new(comm.clone()))
                 .with_device(parse_device(&self.device)?);
         let learner = match self.algorithm {
             AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, self.maddpg_config())?),
@@ -493,6 +505,6 @@ impl ExperimentConfig {
             // fmsr eval runs the test set on one environment.
             trainer_config.envs = Some(envs.len());
         }
-        Ok(Trainer::with_envs(trainer_config, envs, learner, layout)?)
+        Ok(Trainer::with_envs(trainer_config, envs, learner, layout)?.with_communicator(comm))
     }
 }

@@ -23,6 +23,8 @@
 
 pub mod evaluate;
 pub mod experiment;
+#[cfg(feature = "mpi")]
+pub mod mpi;
 pub mod report;
 pub mod run;
 

@@ -1,6 +1,7 @@
 //! The `fmsr` command: train, evaluate and report the paper's experiments.
 
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
@@ -198,20 +199,56 @@ fn epoch_message(s: &EpochStats) -> String {
     )
 }
 
+/// `fmsr train`: in this process, or as one rank of an `mpirun` job.
 fn train(args: &TrainArgs) -> Result<RunDir> {
+    if run::launched_with_several_ranks() {
+        return train_mpi(args);
+    }
+    train_with(args, Arc::new(SingleProcess))
+}
+
+#[cfg(feature = "mpi")]
+fn train_mpi(args: &TrainArgs) -> Result<RunDir> {
+    let mpi = fmsr::mpi::Mpi::init()?;
+    let comm = Arc::new(mpi.communicator());
+    match train_with(args, comm.clone()) {
+        Ok(dir) => Ok(dir),
+        Err(e) => {
+            // The other ranks would wait for this one forever: end the job.
+            eprintln!("error on MPI rank {}: {e:#}", comm.rank());
+            comm.abort(1)
+        }
+    }
+}
+
+#[cfg(not(feature = "mpi"))]
+fn train_mpi(_args: &TrainArgs) -> Result<RunDir> {
+    bail!(
+        "started by mpirun as one of several ranks, but this fmsr was built without the `mpi` feature: \
+         build with `cargo build --release --features mpi` (after scripts/setup_mpi.sh)"
+    )
+}
+
+fn train_with(args: &TrainArgs, comm: Arc<dyn Communicator>) -> Result<RunDir> {
     let (config, dir, resume) = resolve_config(args)?;
     let done = if resume { dir.load_metrics().map(|m| m.len()).unwrap_or(0) } else { 0 };
-    eprintln!(
-        "training {} ({}, {}, {:?}) for {} epochs into {}{}",
-        config.name,
-        config.method.label(),
-        config.algorithm.key(),
-        config.engine,
-        config.trainer.epochs,
-        dir.root().display(),
-        if resume { " (resumed)" } else { "" }
-    );
-    let bar = progress_bar(&config, done);
+    let rank = comm.rank();
+    if rank == 0 {
+        eprintln!(
+            "training {} ({}, {}, {:?}) for {} epochs into {}{}",
+            config.name,
+            config.method.label(),
+            config.algorithm.key(),
+            config.engine,
+            config.trainer.epochs,
+            dir.root().display(),
+            if resume { " (resumed)" } else { "" }
+        );
+        if comm.workers() > 1 {
+            eprintln!("on {} MPI ranks", comm.workers());
+        }
+    }
+    let bar = if rank == 0 { progress_bar(&config, done) } else { ProgressBar::hidden() };
     let on_epoch = |s: &EpochStats| {
         bar.set_message(epoch_message(s));
         bar.inc(1);
@@ -222,7 +259,7 @@ fn train(args: &TrainArgs) -> Result<RunDir> {
                 .map(|_| config.env_config().init())
                 .collect::<Result<Vec<_>, _>>()
                 .context("building the rapier Shadow Hand")?;
-            run::train(&config, envs, &dir, resume, on_epoch)?;
+            run::train_worker(&config, envs, &dir, resume, comm.clone(), on_epoch)?;
         }
         #[cfg(feature = "mujoco")]
         Engine::Mujoco => {
@@ -230,7 +267,7 @@ fn train(args: &TrainArgs) -> Result<RunDir> {
                 .map(|_| config.env_config().init_mujoco(Default::default()))
                 .collect::<Result<Vec<_>, _>>()
                 .context("building the MuJoCo Shadow Hand")?;
-            run::train(&config, envs, &dir, resume, on_epoch)?;
+            run::train_worker(&config, envs, &dir, resume, comm.clone(), on_epoch)?;
         }
         #[cfg(not(feature = "mujoco"))]
         Engine::Mujoco => return Err(fmsr::experiment::ExperimentError::EngineUnavailable.into()),

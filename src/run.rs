@@ -4,6 +4,7 @@
 //! ```text
 //! runs/<name>/config.toml      the resolved experiment
 //! runs/<name>/checkpoint.bin   written atomically after every epoch
+//! runs/<name>/checkpoint.replay/  the replay log: one segment of new episodes per checkpoint
 //! runs/<name>/metrics.jsonl    one fmsr_core::trainer::EpochStats per line
 //! runs/<name>/metrics.csv      the same, flat
 //! runs/<name>/eval.json        written by `fmsr eval`
@@ -149,9 +150,24 @@ pub fn train<E: Env + Send>(
     envs: Vec<E>,
     dir: &RunDir,
     resume: bool,
+    on_epoch: impl FnMut(&EpochStats),
+) -> Result<Trainer<E, fmsr_nn::AnyLearner>, ExperimentError> {
+    train_worker(config, envs, dir, resume, std::sync::Arc::new(SingleProcess), on_epoch)
+}
+
+/// As [`train`], as one of `comm.workers()` worker processes of one run
+/// (every worker calls it): worker 0 writes the configuration, the logs and
+/// every worker's checkpoint files; the others only train.
+pub fn train_worker<E: Env + Send>(
+    config: &ExperimentConfig,
+    envs: Vec<E>,
+    dir: &RunDir,
+    resume: bool,
+    comm: std::sync::Arc<dyn Communicator>,
     mut on_epoch: impl FnMut(&EpochStats),
 ) -> Result<Trainer<E, fmsr_nn::AnyLearner>, ExperimentError> {
-    let mut trainer = config.build_trainer(envs)?;
+    let writes = comm.rank() == 0;
+    let mut trainer = config.build_worker_trainer(envs, comm)?;
     if resume {
         trainer.load_checkpoint(&dir.checkpoint())?;
     } else if dir.checkpoint().exists() {
@@ -160,13 +176,29 @@ pub fn train<E: Env + Send>(
             reason: format!("{} already holds a run: pass --resume or choose another --out", dir.root().display()),
         });
     }
-    write_atomic(&dir.config(), config.to_toml()?.as_bytes())?;
-    dir.write_metrics(trainer.history())?;
+    if writes {
+        write_atomic(&dir.config(), config.to_toml()?.as_bytes())?;
+        dir.write_metrics(trainer.history())?;
+    }
     trainer.train(|t, stats| {
         t.save_checkpoint(&dir.checkpoint())?;
-        dir.write_metrics(t.history())?;
+        if writes {
+            dir.write_metrics(t.history())?;
+        }
         on_epoch(stats);
         Ok(())
     })?;
     Ok(trainer)
+}
+
+/// Whether this process was started by an MPI launcher (`mpirun`, `srun`) as
+/// one of several ranks: Open MPI's, PMI's or Slurm's rank count is set and
+/// above 1.
+#[must_use]
+pub fn launched_with_several_ranks() -> bool {
+    ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE", "SLURM_NTASKS"]
+        .iter()
+        .filter_map(|k| std::env::var(k).ok())
+        .filter_map(|v| v.parse::<usize>().ok())
+        .any(|n| n > 1)
 }

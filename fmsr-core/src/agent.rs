@@ -176,18 +176,55 @@ pub struct Sharing {
     pub target: ShareTarget,
 }
 
-/// Where gradients or parameters would be averaged across worker processes
-/// (the paper trains with 4 MPI workers). The single-process implementation
-/// [`SingleProcess`] does nothing, so running on several processes later
-/// changes no algorithm code.
+/// The collective operations between worker processes that training uses
+/// (the paper trains with 4 MPI workers; HER baselines with up to 19): every
+/// worker calls each operation in the same order. The single-process
+/// implementation [`SingleProcess`] is the identity, so running on several
+/// processes changes no algorithm code; the `fmsr` crate's feature `mpi` has
+/// one over MPI.
 pub trait Communicator: Send + Sync + std::fmt::Debug {
     /// Number of workers.
     fn workers(&self) -> usize;
+
+    /// This worker's index, `0 .. workers()`; worker 0 writes the run's files.
+    fn rank(&self) -> usize;
+
     /// Replaces `values` by their mean over all workers.
     fn all_reduce_mean(&self, values: &mut [f32]);
+
+    /// Every worker's `local`, concatenated in rank order; every worker passes
+    /// the same number of values.
+    fn all_gather(&self, local: &[f32]) -> Vec<f32>;
+
+    /// Worker 0 gets every worker's bytes in rank order (its own first); the
+    /// others get `None`. Lengths may differ.
+    fn gather_bytes(&self, local: Vec<u8>) -> Option<Vec<Vec<u8>>>;
 }
 
-/// The single-process [`Communicator`]: one worker, averaging is the identity.
+/// A shared communicator (the trainer and the algorithm hold the same one).
+impl<C: Communicator + ?Sized> Communicator for std::sync::Arc<C> {
+    fn workers(&self) -> usize {
+        (**self).workers()
+    }
+
+    fn rank(&self) -> usize {
+        (**self).rank()
+    }
+
+    fn all_reduce_mean(&self, values: &mut [f32]) {
+        (**self).all_reduce_mean(values);
+    }
+
+    fn all_gather(&self, local: &[f32]) -> Vec<f32> {
+        (**self).all_gather(local)
+    }
+
+    fn gather_bytes(&self, local: Vec<u8>) -> Option<Vec<Vec<u8>>> {
+        (**self).gather_bytes(local)
+    }
+}
+
+/// The single-process [`Communicator`]: one worker, every operation the identity.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct SingleProcess;
 
@@ -196,5 +233,17 @@ impl Communicator for SingleProcess {
         1
     }
 
+    fn rank(&self) -> usize {
+        0
+    }
+
     fn all_reduce_mean(&self, _values: &mut [f32]) {}
+
+    fn all_gather(&self, local: &[f32]) -> Vec<f32> {
+        local.to_vec()
+    }
+
+    fn gather_bytes(&self, local: Vec<u8>) -> Option<Vec<Vec<u8>>> {
+        Some(vec![local])
+    }
 }

@@ -178,6 +178,21 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
     /// Features outside `[0, 1]` or of the wrong length.
     pub fn observe(&mut self, episode: &Episode) -> Result<Vec<f64>, CoreError> {
         self.occupancy.observe_episode(&episode.features())?;
+        Ok(self.returns(episode))
+    }
+
+    /// Updates the occupancy estimate with one episode's features
+    /// `features[t][k] = phi_k(s_t, a_t)` (e.g. an episode of another worker).
+    ///
+    /// # Errors
+    /// The estimator's error for features of the wrong shape.
+    pub fn observe_features(&mut self, features: &[Vec<f32>]) -> Result<(), CoreError> {
+        self.occupancy.observe_episode(features)
+    }
+
+    /// Each agent's undiscounted return of `episode` under the current estimate.
+    #[must_use]
+    pub fn returns(&self, episode: &Episode) -> Vec<f64> {
         let mut returns = vec![0.0f64; self.rewards.num_agents()];
         let mut step = vec![0.0f32; returns.len()];
         for (t, info) in episode.infos.iter().enumerate() {
@@ -186,7 +201,7 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
             self.agent_rewards(task, &info.features, &mut step);
             returns.iter_mut().zip(&step).for_each(|(r, v)| *r += f64::from(*v));
         }
-        Ok(returns)
+        returns
     }
 
     /// The (first) environment.

@@ -81,15 +81,28 @@ impl ReplayLog {
     /// # Errors
     /// I/O errors.
     pub fn flush(&mut self, dir: &Path) -> Result<(), CoreError> {
-        if self.pending.is_empty() {
-            return Ok(());
+        match self.take_segment()? {
+            Some((name, bytes)) => crate::trainer::write_atomic(&dir.join(name), &bytes),
+            None => Ok(()),
         }
-        let segment =
-            Segment { first: self.stored - self.pending.len() as u64, episodes: self.pending.drain(..).collect() };
-        let path = dir.join(format!("{:020}.{EXTENSION}", segment.first));
+    }
+
+    /// The pending episodes as one segment, its file name and bytes (none if
+    /// nothing is pending), forgetting them: what [`ReplayLog::flush`] writes,
+    /// for a caller that writes elsewhere (worker 0 writes every worker's).
+    ///
+    /// # Errors
+    /// [`CoreError::Corrupt`] when an episode cannot be encoded.
+    pub fn take_segment(&mut self) -> Result<Option<(String, Vec<u8>)>, CoreError> {
+        if self.pending.is_empty() {
+            return Ok(None);
+        }
+        let first = self.stored - self.pending.len() as u64;
+        let name = format!("{first:020}.{EXTENSION}");
+        let segment = Segment { first, episodes: self.pending.drain(..).collect() };
         let bytes = persist::encode(MAGIC, VERSION, &segment)
-            .map_err(|e| CoreError::Corrupt { path: path.clone(), reason: e.to_string() })?;
-        crate::trainer::write_atomic(&path, &bytes)
+            .map_err(|e| CoreError::Corrupt { path: name.clone().into(), reason: e.to_string() })?;
+        Ok(Some((name, bytes)))
     }
 
     /// Deletes the segments of `dir` that hold only episodes before `keep_from`

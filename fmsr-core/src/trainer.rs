@@ -21,7 +21,9 @@ use rand_chacha::ChaCha8Rng;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
-use crate::agent::ObservationLayout;
+use std::sync::Arc;
+
+use crate::agent::{Communicator, ObservationLayout, SingleProcess};
 use crate::algorithm::{Algorithm, UpdateStats};
 use crate::collector::Collector;
 use crate::config::ShadowConfig;
@@ -254,6 +256,7 @@ pub struct Trainer<E, A, O = DiscountedOccupancy, S = LogUtility> {
     algorithm: A,
     state: TrainerState,
     log: ReplayLog,
+    comm: Arc<dyn Communicator>,
 }
 
 /// A well-mixed 64-bit hash (splitmix64), used to derive evaluation seeds.
@@ -263,6 +266,13 @@ pub fn splitmix64(mut x: u64) -> u64 {
     x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     x ^ (x >> 31)
+}
+
+/// The trainer's random stream of worker `rank` (worker 0: the single-process one).
+fn rank_rng(seed: u64, rank: usize) -> ChaCha8Rng {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(rank as u64);
+    rng
 }
 
 fn algo_err<E: std::error::Error + Send + Sync + 'static>(e: E) -> CoreError {
@@ -326,12 +336,32 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
         }
         let state = TrainerState {
             epoch: 0,
-            rng: ChaCha8Rng::seed_from_u64(config.seed),
+            rng: rank_rng(config.seed, 0),
             updates: 0,
             history: Vec::new(),
             stored_episodes: 0,
         };
-        Ok(Self { config, collector, algorithm, state, log: ReplayLog::default() })
+        Ok(Self { config, collector, algorithm, state, log: ReplayLog::default(), comm: Arc::new(SingleProcess) })
+    }
+
+    /// Trains as one of `comm.workers()` worker processes (MPI) of one run:
+    /// episode seeds come from a random stream of the worker's own (worker 0's
+    /// is the single-process one), every worker's occupancy estimate observes
+    /// the episodes of all workers, the epoch statistics are summed over them,
+    /// and worker 0 writes the checkpoints of all (each worker's own RNG, replay
+    /// log and learner state; see [`Trainer::save_checkpoint`]). Give the
+    /// algorithm the same communicator, so that gradients are averaged.
+    #[must_use]
+    pub fn with_communicator(mut self, comm: Arc<dyn Communicator>) -> Self {
+        self.state.rng = rank_rng(self.config.seed, comm.rank());
+        self.comm = comm;
+        self
+    }
+
+    /// The communicator between worker processes ([`SingleProcess`] by default).
+    #[must_use]
+    pub fn communicator(&self) -> &dyn Communicator {
+        self.comm.as_ref()
     }
 
     /// The configuration.
@@ -453,13 +483,46 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
     }
 
     /// Collect and store: one cycle's exploring rollouts, each stored by the
-    /// algorithm and observed by the occupancy estimator.
+    /// algorithm and observed by the occupancy estimator (with several workers:
+    /// every worker's episodes, in rank order).
     fn collect(&mut self, tally: &mut EpochTally) -> Result<(), CoreError> {
         let seeds: Vec<u64> = (0..self.config.episodes_per_cycle).map(|_| self.state.rng.random::<u64>()).collect();
-        for episode in self.collector.rollouts(&mut self.algorithm, &seeds, ActMode::Explore)? {
+        let episodes = self.collector.rollouts(&mut self.algorithm, &seeds, ActMode::Explore)?;
+        if self.comm.workers() > 1 {
+            return self.collect_workers(episodes, tally);
+        }
+        for episode in episodes {
             self.algorithm.store(&episode).map_err(algo_err)?;
             let returns = self.collector.observe(&episode)?;
             tally.add_episode(&episode, &returns);
+            self.log.push(episode, self.algorithm.storage_capacity());
+        }
+        self.state.stored_episodes = self.log.stored();
+        Ok(())
+    }
+
+    /// [`Trainer::collect`]'s storing and observing with several workers.
+    fn collect_workers(&mut self, episodes: Vec<Episode>, tally: &mut EpochTally) -> Result<(), CoreError> {
+        for episode in &episodes {
+            self.algorithm.store(episode).map_err(algo_err)?;
+        }
+        let (steps, k) = (self.env().spec().episode_len, self.env().spec().features.len());
+        let local: Vec<f32> = episodes.iter().flat_map(|e| e.infos.iter().flat_map(|i| i.features.clone())).collect();
+        if local.len() != episodes.len() * steps * k {
+            return Err(CoreError::Dimension {
+                what: "episode features",
+                expected: episodes.len() * steps * k,
+                found: local.len(),
+            });
+        }
+        let all = self.comm.all_gather(&local);
+        for e in 0..episodes.len() * self.comm.workers() {
+            let episode = &all[e * steps * k..(e + 1) * steps * k];
+            let features: Vec<Vec<f32>> = (0..steps).map(|t| episode[t * k..(t + 1) * k].to_vec()).collect();
+            self.collector.observe_features(&features)?;
+        }
+        for episode in episodes {
+            tally.add_episode(&episode, &self.collector.returns(&episode));
             self.log.push(episode, self.algorithm.storage_capacity());
         }
         self.state.stored_episodes = self.log.stored();
@@ -472,6 +535,34 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
         let stats = self.algorithm.update(&self.collector).map_err(algo_err)?;
         tally.add_update(&stats, start.elapsed().as_secs_f64());
         Ok(())
+    }
+
+    /// With several workers: the epoch's sums over all of them (losses: the
+    /// mean). Every worker evaluates the same seeds with the same networks.
+    fn reduce_tally(&self, tally: &mut EpochTally) {
+        let workers = self.comm.workers();
+        if workers <= 1 {
+            return;
+        }
+        let counts = [tally.successes, tally.episodes, tally.steps].map(|c| c as f64);
+        let mut v: Vec<f32> = [&tally.returns[..], &tally.features, &tally.critic_loss, &tally.actor_loss, &counts]
+            .concat()
+            .into_iter()
+            .map(|x| x as f32)
+            .collect();
+        self.comm.all_reduce_mean(&mut v);
+        let w = workers as f64;
+        let mut it = v.into_iter().map(f64::from);
+        for (field, scale) in [
+            (&mut tally.returns, w),
+            (&mut tally.features, w),
+            (&mut tally.critic_loss, 1.0),
+            (&mut tally.actor_loss, 1.0),
+        ] {
+            field.iter_mut().zip(it.by_ref()).for_each(|(x, m)| *x = m * scale);
+        }
+        let mut count = || (it.next().unwrap_or(0.0) * w).round() as usize;
+        (tally.successes, tally.episodes, tally.steps) = (count(), count(), count());
     }
 
     /// The statistics of a finished epoch.
@@ -488,9 +579,10 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
             occupancy: self.occupancy().to_vec(),
             critic_loss: per(&tally.critic_loss, tally.loss_cycles),
             actor_loss: per(&tally.actor_loss, tally.loss_cycles),
-            env_steps: self.collector.env_steps(),
+            env_steps: self.collector.env_steps() * self.comm.workers() as u64,
             updates: self.state.updates,
-            env_steps_per_sec: env_steps as f64 / (seconds - tally.update_seconds).max(1e-9),
+            env_steps_per_sec: (env_steps * self.comm.workers() as u64) as f64
+                / (seconds - tally.update_seconds).max(1e-9),
             updates_per_sec: tally.updates as f64 / tally.update_seconds.max(1e-9),
             seconds,
         }
@@ -511,6 +603,7 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
             self.update(&mut tally)?;
         }
         self.state.updates += tally.updates;
+        self.reduce_tally(&mut tally);
         let eval = self.evaluate(&self.eval_seeds(self.state.epoch), None)?;
         let stats =
             self.epoch_stats(&tally, eval, start.elapsed().as_secs_f64(), self.collector.env_steps() - steps_before);
@@ -562,6 +655,59 @@ struct CheckpointMeta<O> {
     state: TrainerState,
     occupancy: O,
     env_steps: u64,
+    /// Worker processes of the run, and which one this file belongs to.
+    workers: usize,
+    rank: usize,
+}
+
+/// What one worker contributes to a checkpoint: its checkpoint file and its
+/// new replay segment (name and bytes).
+#[derive(Serialize, Deserialize)]
+struct WorkerFiles {
+    checkpoint: Vec<u8>,
+    segment: Option<(String, Vec<u8>)>,
+}
+
+const WORKER_MAGIC: &[u8; 8] = b"FMSRWRKR";
+
+/// The checkpoint file of worker `rank` at `epoch`: `path` itself for worker 0
+/// (the file whose rename commits a checkpoint), else
+/// `<stem>.worker<rank>.e<epoch>.<ext>` beside it.
+fn worker_path(path: &Path, rank: usize, epoch: usize) -> PathBuf {
+    if rank == 0 {
+        return path.to_path_buf();
+    }
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
+    path.with_file_name(format!("{stem}.worker{rank}.e{epoch:06}.{ext}"))
+}
+
+/// The replay log folder of worker `rank`: [`ReplayLog::dir`] for worker 0,
+/// else `<stem>.worker<rank>.replay`.
+fn worker_replay_dir(path: &Path, rank: usize) -> PathBuf {
+    if rank == 0 {
+        return ReplayLog::dir(path);
+    }
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    path.with_file_name(format!("{stem}.worker{rank}.replay"))
+}
+
+/// Deletes the checkpoint files of workers `1..workers` from other epochs than `epoch`.
+fn remove_stale_worker_files(path: &Path, workers: usize, epoch: usize) -> Result<(), CoreError> {
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let current: Vec<PathBuf> = (1..workers).map(|r| worker_path(path, r, epoch)).collect();
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let prefix = format!("{stem}.worker");
+    let entries = std::fs::read_dir(dir).map_err(|source| CoreError::Io { path: dir.into(), source })?;
+    for entry in entries.flatten() {
+        let p = entry.path();
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let stale = name.starts_with(&prefix) && p.extension() == path.extension() && !current.contains(&p);
+        if stale && p.is_file() {
+            std::fs::remove_file(&p).map_err(|source| CoreError::Io { path: p.clone(), source })?;
+        }
+    }
+    Ok(())
 }
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same folder,
@@ -599,49 +745,113 @@ where
     /// Every file is written atomically, in an order that leaves a loadable
     /// checkpoint whenever the process is killed (see [`crate::replay_log`]).
     ///
+    /// With several workers every worker calls this; worker 0 gathers and
+    /// writes every worker's files (`<stem>.worker<r>.e<epoch>.<ext>` and
+    /// `<stem>.worker<r>.replay/` beside `path`), its own last.
+    ///
     /// # Errors
     /// I/O errors, and errors of the algorithm's `save_state`.
     pub fn save_checkpoint(&mut self, path: &Path) -> Result<(), CoreError> {
-        let dir = ReplayLog::dir(path);
-        self.log.flush(&dir)?;
+        let files = WorkerFiles { segment: self.log.take_segment()?, checkpoint: self.checkpoint_bytes(path)? };
+        let all = if self.comm.workers() <= 1 {
+            vec![files]
+        } else {
+            let corrupt = |e: persist::FormatError| CoreError::Corrupt { path: path.into(), reason: e.to_string() };
+            let bytes = persist::encode(WORKER_MAGIC, VERSION, &files).map_err(corrupt)?;
+            let Some(gathered) = self.comm.gather_bytes(bytes) else { return Ok(()) };
+            gathered
+                .iter()
+                .map(|b| persist::decode(WORKER_MAGIC, VERSION, b).map_err(corrupt))
+                .collect::<Result<_, _>>()?
+        };
+        self.write_checkpoint_files(path, all)
+    }
+
+    /// This worker's checkpoint file.
+    fn checkpoint_bytes(&self, path: &Path) -> Result<Vec<u8>, CoreError> {
         let meta = CheckpointMeta {
             config: self.config.clone(),
             state: self.state.clone(),
             occupancy: self.collector.occupancy(),
             env_steps: self.collector.env_steps(),
+            workers: self.comm.workers(),
+            rank: self.comm.rank(),
         };
         let corrupt = |reason: String| CoreError::Corrupt { path: path.into(), reason };
         let meta = serde_json::to_string(&meta).map_err(|e| corrupt(e.to_string()))?;
         let algorithm = self.algorithm.save_state(false).map_err(algo_err)?;
-        let bytes =
-            persist::encode(MAGIC, VERSION, &CheckpointFile { meta, algorithm }).map_err(|e| corrupt(e.to_string()))?;
-        write_atomic(path, &bytes)?;
-        ReplayLog::prune(&dir, self.window_start())
+        persist::encode(MAGIC, VERSION, &CheckpointFile { meta, algorithm }).map_err(|e| corrupt(e.to_string()))
+    }
+
+    /// Writes every worker's segment, then the other workers' checkpoints, then
+    /// worker 0's (the commit), then prunes what the new checkpoint no longer needs.
+    fn write_checkpoint_files(&self, path: &Path, all: Vec<WorkerFiles>) -> Result<(), CoreError> {
+        let epoch = self.state.epoch;
+        for (rank, files) in all.iter().enumerate() {
+            if let Some((name, bytes)) = &files.segment {
+                write_atomic(&worker_replay_dir(path, rank).join(name), bytes)?;
+            }
+        }
+        for (rank, files) in all.iter().enumerate().skip(1).chain(all.iter().enumerate().take(1)) {
+            write_atomic(&worker_path(path, rank, epoch), &files.checkpoint)?;
+        }
+        for rank in 0..all.len() {
+            ReplayLog::prune(&worker_replay_dir(path, rank), self.window_start())?;
+        }
+        if all.len() > 1 { remove_stale_worker_files(path, all.len(), epoch) } else { Ok(()) }
     }
 
     /// Restores a checkpoint written by [`Trainer::save_checkpoint`], with the
     /// algorithm's storage read back from the replay log. The checkpoint must
     /// come from the same configuration, except `epochs`, which may be raised to
-    /// train longer, and `envs` and `threads`. A corrupted, truncated or
-    /// mismatched file is an error naming the problem.
+    /// train longer, and `envs` and `threads`, and from as many workers; each
+    /// worker reads its own files. A corrupted, truncated or mismatched file is
+    /// an error naming the problem.
     ///
     /// # Errors
     /// [`CoreError::Io`], [`CoreError::Corrupt`] (also for a damaged or missing
-    /// replay log), [`CoreError::InvalidConfig`] (another configuration) or the
-    /// algorithm's error (another shape).
+    /// replay log), [`CoreError::InvalidConfig`] (another configuration, or
+    /// another number of workers) or the algorithm's error (another shape).
     pub fn load_checkpoint(&mut self, path: &Path) -> Result<(), CoreError> {
-        self.load_checkpoint_without_storage(path)?;
+        let (rank, workers) = (self.comm.rank(), self.comm.workers());
+        let (main, algorithm) = self.read_checkpoint(path)?;
+        if main.workers != workers {
+            return Err(CoreError::InvalidConfig {
+                key: "checkpoint".into(),
+                reason: format!(
+                    "{} was written by a run of {} worker process(es), this one has {workers}: resume with as many \
+                     (`mpirun -np {}`), or start a new run",
+                    path.display(),
+                    main.workers,
+                    main.workers
+                ),
+            });
+        }
+        let own = worker_path(path, rank, main.state.epoch);
+        let (meta, algorithm) = if rank == 0 { (main, algorithm) } else { self.read_checkpoint(&own)? };
+        if meta.rank != rank {
+            return Err(CoreError::Corrupt { path: own, reason: format!("holds worker {}'s state", meta.rank) });
+        }
+        self.apply_checkpoint(meta, &algorithm)?;
         let (from, to) = (self.window_start(), self.state.stored_episodes);
-        let episodes = ReplayLog::read(&ReplayLog::dir(path), from, to)?;
+        let episodes = ReplayLog::read(&worker_replay_dir(path, rank), from, to)?;
         self.algorithm.restore_storage(to, &episodes).map_err(algo_err)
     }
 
     /// As [`Trainer::load_checkpoint`] but leaves the algorithm's storage as it
-    /// is and reads no replay log: enough to evaluate the policy, not to train on.
+    /// is and reads no replay log, and only worker 0's file: enough to evaluate
+    /// the policy (of a run of any number of workers), not to train on.
     ///
     /// # Errors
     /// As [`Trainer::load_checkpoint`].
     pub fn load_checkpoint_without_storage(&mut self, path: &Path) -> Result<(), CoreError> {
+        let (meta, algorithm) = self.read_checkpoint(path)?;
+        self.apply_checkpoint(meta, &algorithm)
+    }
+
+    /// A checkpoint file's trainer part (checked against this trainer's
+    /// configuration) and algorithm bytes.
+    fn read_checkpoint(&self, path: &Path) -> Result<(CheckpointMeta<O>, Vec<u8>), CoreError> {
         let corrupt = |reason: String| CoreError::Corrupt { path: path.into(), reason };
         let bytes = std::fs::read(path).map_err(|source| CoreError::Io { path: path.into(), source })?;
         let file: CheckpointFile = persist::decode(MAGIC, VERSION, &bytes).map_err(|e| corrupt(e.to_string()))?;
@@ -661,7 +871,11 @@ where
         if meta.occupancy.estimate().len() != self.env().spec().features.len() {
             return Err(corrupt("occupancy has a different number of features".into()));
         }
-        self.algorithm.load_state(&file.algorithm).map_err(algo_err)?;
+        Ok((meta, file.algorithm))
+    }
+
+    fn apply_checkpoint(&mut self, meta: CheckpointMeta<O>, algorithm: &[u8]) -> Result<(), CoreError> {
+        self.algorithm.load_state(algorithm).map_err(algo_err)?;
         self.collector.restore(meta.occupancy, meta.env_steps);
         self.log = ReplayLog::resumed(meta.state.stored_episodes);
         self.state = meta.state;

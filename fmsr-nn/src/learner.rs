@@ -109,7 +109,7 @@ pub(crate) struct Learner {
     pub(crate) replay_config: ReplayConfig,
     pub(crate) gamma: f64,
     pub(crate) sharing: InformationSharing,
-    comm: Box<dyn Communicator>,
+    pub(crate) comm: Box<dyn Communicator>,
     pub(crate) device: Device,
     pub(crate) agents: Vec<AgentNets>,
     pub(crate) critic_norm: Normalizer,
@@ -177,7 +177,9 @@ impl LearnerParts {
         self
     }
 
-    /// With a communicator between worker processes.
+    /// With a communicator between worker processes: gradients (as HER
+    /// baselines' MPI Adam), normaliser statistics and MASAC's temperature
+    /// gradients are averaged over the workers, so their networks stay identical.
     #[must_use]
     pub fn with_communicator(mut self, comm: Box<dyn Communicator>) -> Self {
         self.comm = comm;
@@ -319,8 +321,10 @@ impl Learner {
         let pools = worker_pools(net.threads.min(agents.len()))?;
         let replay = ReplayBuffer::new(&spec, replay_config.buffer_size)
             .map_err(|e| NnError::InvalidConfig { key: "replay.buffer_size", reason: e.to_string() })?;
+        // Networks start identical on every worker; exploration and sampling
+        // draw from a stream of the worker's own.
         let mut rng = ChaCha8Rng::seed_from_u64(net.seed);
-        rng.set_stream(0xF115);
+        rng.set_stream(0xF115 + comm.rank() as u64);
         Ok(Self {
             critic_norm: Normalizer::new(spec.obs_dim + spec.goal_dim, net.norm_eps, net.clip_obs),
             layout,

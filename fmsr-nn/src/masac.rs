@@ -157,8 +157,10 @@ impl Masac {
             }
             Ok((lp.mul_scalar(alphas[i]) - q).mean())
         })?;
-        let mean_logp =
+        let mut mean_logp =
             mean_logp.into_inner().map_err(|_| NnError::Backend { what: "log pi", reason: "poisoned".into() })?;
+        // Every worker tunes the same temperatures (the mean over all batches).
+        self.learner.comm.all_reduce_mean(&mut mean_logp);
         self.update_temperatures(&mean_logp, &dims);
         self.learner.steps += 1;
         Ok(Some(StepLosses { critic, actor: Some(actor) }))

@@ -23,11 +23,23 @@ impl Communicator for Fake {
         2
     }
 
+    fn rank(&self) -> usize {
+        0
+    }
+
     fn all_reduce_mean(&self, values: &mut [f32]) {
         self.calls.fetch_add(1, Ordering::Relaxed);
         for v in values {
             *v = if self.zero { 0.0 } else { *v / 2.0 };
         }
+    }
+
+    fn all_gather(&self, local: &[f32]) -> Vec<f32> {
+        [local, local].concat()
+    }
+
+    fn gather_bytes(&self, local: Vec<u8>) -> Option<Vec<Vec<u8>>> {
+        Some(vec![local.clone(), local])
     }
 }
 
