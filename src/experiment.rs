@@ -501,10 +501,10 @@ impl ExperimentConfig {
             AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, self.masac_config())?),
         };
         let mut trainer_config = trainer_config;
-        if envs.len() != trainer_config.num_envs() {
+        if envs.len() != trainer_config.worker_envs(comm.workers())? {
             // fmsr eval runs the test set on one environment.
             trainer_config.envs = Some(envs.len());
         }
-        Ok(Trainer::with_envs(trainer_config, envs, learner, layout)?.with_communicator(comm))
+        Ok(Trainer::with_envs(trainer_config, envs, learner, layout)?.with_communicator(comm)?)
     }
 }

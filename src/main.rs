@@ -255,7 +255,7 @@ fn train_with(args: &TrainArgs, comm: Arc<dyn Communicator>) -> Result<RunDir> {
     };
     match config.engine {
         Engine::Rapier => {
-            let envs = (0..config.trainer.num_envs())
+            let envs = (0..config.trainer.worker_envs(comm.workers())?)
                 .map(|_| config.env_config().init())
                 .collect::<Result<Vec<_>, _>>()
                 .context("building the rapier Shadow Hand")?;
@@ -263,7 +263,7 @@ fn train_with(args: &TrainArgs, comm: Arc<dyn Communicator>) -> Result<RunDir> {
         }
         #[cfg(feature = "mujoco")]
         Engine::Mujoco => {
-            let envs = (0..config.trainer.num_envs())
+            let envs = (0..config.trainer.worker_envs(comm.workers())?)
                 .map(|_| config.env_config().init_mujoco(Default::default()))
                 .collect::<Result<Vec<_>, _>>()
                 .context("building the MuJoCo Shadow Hand")?;

@@ -53,7 +53,10 @@ impl HerConfig {
 pub struct ReplayConfig {
     /// Replay capacity in transitions (1e6).
     pub buffer_size: usize,
-    /// Samples per gradient step (256).
+    /// Samples per gradient step over all worker processes (256, HER baselines'
+    /// one-CPU setting; the paper's 4 MPI workers x 256 = 1024): each of `N`
+    /// workers samples `batch_size / N` and their gradients are averaged, so a
+    /// config means the same experiment on any number of workers.
     pub batch_size: usize,
     /// Gradient steps per training cycle (paper: 25).
     pub batches: usize,
@@ -68,6 +71,21 @@ impl Default for ReplayConfig {
 }
 
 impl ReplayConfig {
+    /// The samples one of `workers` worker processes draws per gradient step.
+    ///
+    /// ```
+    /// use fmsr_core::replay::ReplayConfig;
+    /// let paper = ReplayConfig { batch_size: 1024, ..ReplayConfig::default() };
+    /// assert_eq!(paper.worker_batch(4).unwrap(), 256);
+    /// assert!(paper.worker_batch(3).is_err());
+    /// ```
+    ///
+    /// # Errors
+    /// [`CoreError::InvalidConfig`] (key `replay.batch_size`) unless `workers` divides it.
+    pub fn worker_batch(&self, workers: usize) -> Result<usize, CoreError> {
+        per_worker("replay.batch_size", self.batch_size, workers)
+    }
+
     /// Checks every value, naming the key of the first impossible one.
     ///
     /// ```
@@ -83,6 +101,17 @@ impl ReplayConfig {
         }
         Ok(())
     }
+}
+
+/// `total / workers`, when `workers` divides `total` into nonzero parts.
+pub(crate) fn per_worker(key: &str, total: usize, workers: usize) -> Result<usize, CoreError> {
+    if workers == 0 || !total.is_multiple_of(workers) || total < workers {
+        return Err(CoreError::InvalidConfig {
+            key: key.into(),
+            reason: format!("{total} is the total over all worker processes and must split evenly over {workers}"),
+        });
+    }
+    Ok(total / workers)
 }
 
 /// One recorded episode: `T + 1` observations, `T` joint actions and `T` step infos.

@@ -49,7 +49,10 @@ pub struct TrainerConfig {
     pub epochs: usize,
     /// Cycles per epoch (paper: 25).
     pub cycles: usize,
-    /// Rollouts per cycle (HER baselines: 2 per worker).
+    /// Rollouts per cycle over all worker processes (HER baselines: 2 per
+    /// worker; the paper: 4 MPI workers x 2 = 8): each of `N` workers runs
+    /// `episodes_per_cycle / N`, so a config means the same experiment on any
+    /// number of workers.
     pub episodes_per_cycle: usize,
     /// Environments that run rollouts in lockstep, with one batched policy
     /// call per step; `None` is `episodes_per_cycle`, so a cycle's rollouts run
@@ -121,6 +124,29 @@ impl TrainerConfig {
     #[must_use]
     pub fn num_envs(&self) -> usize {
         self.envs.unwrap_or(self.episodes_per_cycle)
+    }
+
+    /// The rollouts per cycle of one of `workers` worker processes.
+    ///
+    /// ```
+    /// use fmsr_core::trainer::TrainerConfig;
+    /// let paper = TrainerConfig { episodes_per_cycle: 8, ..TrainerConfig::default() };
+    /// assert_eq!(paper.worker_episodes(4).unwrap(), 2);
+    /// assert!(paper.worker_episodes(3).is_err());
+    /// ```
+    ///
+    /// # Errors
+    /// [`CoreError::InvalidConfig`] (key `trainer.episodes_per_cycle`) unless `workers` divides it.
+    pub fn worker_episodes(&self, workers: usize) -> Result<usize, CoreError> {
+        crate::replay::per_worker("trainer.episodes_per_cycle", self.episodes_per_cycle, workers)
+    }
+
+    /// The environments of one of `workers` worker processes: `envs`, or its rollouts per cycle.
+    ///
+    /// # Errors
+    /// As [`TrainerConfig::worker_episodes`].
+    pub fn worker_envs(&self, workers: usize) -> Result<usize, CoreError> {
+        Ok(self.envs.unwrap_or(self.worker_episodes(workers)?))
     }
 
     /// The number of stepping threads: `threads` or the number of cores.
@@ -351,11 +377,15 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
     /// and worker 0 writes the checkpoints of all (each worker's own RNG, replay
     /// log and learner state; see [`Trainer::save_checkpoint`]). Give the
     /// algorithm the same communicator, so that gradients are averaged.
-    #[must_use]
-    pub fn with_communicator(mut self, comm: Arc<dyn Communicator>) -> Self {
+    ///
+    /// # Errors
+    /// [`CoreError::InvalidConfig`] when `episodes_per_cycle` does not split
+    /// evenly over the workers.
+    pub fn with_communicator(mut self, comm: Arc<dyn Communicator>) -> Result<Self, CoreError> {
+        self.config.worker_episodes(comm.workers())?;
         self.state.rng = rank_rng(self.config.seed, comm.rank());
         self.comm = comm;
-        self
+        Ok(self)
     }
 
     /// The communicator between worker processes ([`SingleProcess`] by default).
@@ -486,7 +516,8 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
     /// algorithm and observed by the occupancy estimator (with several workers:
     /// every worker's episodes, in rank order).
     fn collect(&mut self, tally: &mut EpochTally) -> Result<(), CoreError> {
-        let seeds: Vec<u64> = (0..self.config.episodes_per_cycle).map(|_| self.state.rng.random::<u64>()).collect();
+        let n = self.config.worker_episodes(self.comm.workers())?;
+        let seeds: Vec<u64> = (0..n).map(|_| self.state.rng.random::<u64>()).collect();
         let episodes = self.collector.rollouts(&mut self.algorithm, &seeds, ActMode::Explore)?;
         if self.comm.workers() > 1 {
             return self.collect_workers(episodes, tally);

@@ -107,6 +107,8 @@ pub(crate) struct Learner {
     pub(crate) layout: ObservationLayout,
     pub(crate) net: NetworkConfig,
     pub(crate) replay_config: ReplayConfig,
+    /// This worker's share of `replay_config.batch_size`.
+    batch: usize,
     pub(crate) gamma: f64,
     pub(crate) sharing: InformationSharing,
     pub(crate) comm: Box<dyn Communicator>,
@@ -307,6 +309,14 @@ impl Learner {
         let LearnerParts { layout, networks: net, replay: replay_config, gamma, sharing, comm, device } = parts;
         net.validate()?;
         replay_config.validate().map_err(|e| NnError::InvalidConfig { key: "replay", reason: e.to_string() })?;
+        let batch = replay_config.worker_batch(comm.workers()).map_err(|_| NnError::InvalidConfig {
+            key: "replay.batch_size",
+            reason: format!(
+                "{} is the total over all worker processes and must split evenly over {}",
+                replay_config.batch_size,
+                comm.workers()
+            ),
+        })?;
         check_parts(&layout, gamma, sharing.as_ref())?;
         let spec = layout.spec().clone();
         let sharing = InformationSharing::new(sharing);
@@ -330,6 +340,7 @@ impl Learner {
             layout,
             net,
             replay_config,
+            batch,
             gamma,
             sharing,
             comm,
@@ -414,7 +425,7 @@ impl Learner {
         let b = self
             .replay
             .sample(
-                self.replay_config.batch_size,
+                self.batch,
                 &self.replay_config.her,
                 &self.layout,
                 &mut self.rng,

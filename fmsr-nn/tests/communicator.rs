@@ -78,3 +78,15 @@ fn normaliser_calls() -> usize {
     Normalizer::new(2, 0.01, 5.0).update(&[1.0, 2.0], &comm);
     calls.load(Ordering::Relaxed)
 }
+
+/// Guards the per-update sample count over workers (issue 11, item 1):
+/// `replay.batch_size` is the total over all workers, so it must split evenly.
+#[test]
+fn the_batch_is_split_over_the_workers() {
+    let layout = common::layout(&[2, 1, 1], 5, 2);
+    let net = NetworkConfig::new().with_hidden(16).with_layers(2).with_seed(1);
+    let mut parts = common::parts(&layout, net, 0.9).with_communicator(Box::new(Fake::default()));
+    parts.replay.batch_size = 3;
+    let err = Maddpg::new(parts, MaddpgConfig::new()).unwrap_err();
+    assert!(err.to_string().contains("replay.batch_size"), "{err}");
+}
