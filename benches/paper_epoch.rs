@@ -1,7 +1,7 @@
 //! One paper epoch of Dense+FMSR+IS on the block (rapier), with the paper's
 //! proportions: 25 cycles x 8 rollouts x 100 steps = 20k env steps and
-//! 25 cycles x 25 = 625 joint updates of the 6 agents (batch 256, 3 x 256),
-//! evaluation excluded. To fit a bench run it times `FMSR_EPOCH_CYCLES`
+//! 25 cycles x 25 = 625 joint updates of the 6 agents (batch 1024, the paper's
+//! 4 workers x 256; networks 3 x 256), evaluation excluded. To fit a bench run it times `FMSR_EPOCH_CYCLES`
 //! cycles (default 5, i.e. 1/5 of both) and scales to the whole epoch.
 //!
 //! Settings, measured in one run:

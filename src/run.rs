@@ -105,7 +105,7 @@ impl RunDir {
             let _ = write!(csv, ",occupancy_{i},eval_feature_rate_{i}");
         }
         for i in 0..n {
-            let _ = write!(csv, ",return_{i},critic_loss_{i},actor_loss_{i}");
+            let _ = write!(csv, ",return_{i},critic_loss_{i},actor_loss_{i},task_reward_abs_{i},shadow_reward_abs_{i}");
         }
         csv.push('\n');
         for s in history {
@@ -128,10 +128,12 @@ impl RunDir {
             for i in 0..n {
                 let _ = write!(
                     csv,
-                    ",{},{},{}",
+                    ",{},{},{},{},{}",
                     s.returns[i],
                     s.critic_loss.get(i).copied().unwrap_or(0.0),
-                    s.actor_loss.get(i).copied().unwrap_or(0.0)
+                    s.actor_loss.get(i).copied().unwrap_or(0.0),
+                    s.task_reward_abs.get(i).copied().unwrap_or(0.0),
+                    s.shadow_reward_abs.get(i).copied().unwrap_or(0.0)
                 );
             }
             csv.push('\n');

@@ -159,3 +159,22 @@ fn bad_checkpoints_are_clear_errors() {
     let err = wrong.load_checkpoint(&path).unwrap_err();
     assert!(matches!(err, CoreError::Algorithm(_)), "{err}");
 }
+
+/// Guards the shadow-reward scale check (issue 11, item 1): shadow rewards
+/// that outweigh the task reward in the first cycle stop training with an
+/// error naming the key and both magnitudes; the magnitudes are logged.
+#[test]
+fn shadow_rewards_that_outweigh_the_task_are_refused() {
+    let mut config = common::trainer_config(Method::DenseFmsr, 1, 1);
+    config.shadow.alpha = 50.0;
+    let mut t = team_reach_trainer_config(AlgorithmKind::Maddpg, Method::DenseFmsr, config.clone());
+    let err = t.train(|_, _| Ok(())).unwrap_err();
+    assert!(err.to_string().contains("trainer.shadow.max_scale") && err.to_string().contains("agent `w`"), "{err}");
+
+    config.shadow.max_scale = f64::INFINITY;
+    let mut t = team_reach_trainer_config(AlgorithmKind::Maddpg, Method::DenseFmsr, config);
+    t.train(|_, _| Ok(())).unwrap();
+    let stats = &t.history()[0];
+    assert!(stats.shadow_reward_abs[2] > stats.task_reward_abs[2], "{stats:?}");
+    assert_eq!(stats.shadow_reward_abs[0], 0.0, "agent x has no shadow reward");
+}

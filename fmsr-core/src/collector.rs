@@ -190,6 +190,16 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
         self.occupancy.observe_episode(features)
     }
 
+    /// Adds each agent's per-step reward magnitudes over `episode` under the
+    /// current estimate to `task_abs` (`|w_i r|`) and `shadow_abs` (`|alpha sum_k z_k|`).
+    pub fn add_reward_magnitudes(&self, episode: &Episode, task_abs: &mut [f64], shadow_abs: &mut [f64]) {
+        for (t, info) in episode.infos.iter().enumerate() {
+            let o = &episode.observations[t + 1];
+            let task = self.envs[0].goal_reward(&o.achieved_goal, &o.desired_goal);
+            self.rewards.add_magnitudes(task, &info.features, self.occupancy.estimate(), task_abs, shadow_abs);
+        }
+    }
+
     /// Each agent's undiscounted return of `episode` under the current estimate.
     #[must_use]
     pub fn returns(&self, episode: &Episode) -> Vec<f64> {

@@ -24,6 +24,13 @@ pub struct ShadowConfig {
     pub occupancy: Averaging,
     /// Which features each agent receives; `None` is the paper's eqs. 13-15.
     pub assignment: Option<RewardAssignment>,
+    /// The largest ratio, for any agent, of its mean per-step shadow reward
+    /// `|alpha sum_k z_k|` to its mean per-step task reward `|w_i r|` over the
+    /// first cycle's episodes (default 1.0: shadow rewards must not outweigh the
+    /// task). Training stops with an error naming both values when an agent's
+    /// ratio is larger; `inf` disables the check. Every epoch logs the ratios
+    /// (`EpochStats::shadow_scale`).
+    pub max_scale: f64,
 }
 
 impl Default for ShadowConfig {
@@ -34,6 +41,7 @@ impl Default for ShadowConfig {
             utility: LogUtility::default(),
             occupancy: Averaging::default(),
             assignment: None,
+            max_scale: 1.0,
         }
     }
 }

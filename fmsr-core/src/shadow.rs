@@ -279,6 +279,17 @@ impl<S: ShadowReward> AgentRewards<S> {
         }
     }
 
+    /// Adds each agent's `|w_i r|` (task part) to `task_abs` and `|alpha sum_k z_k|`
+    /// (shadow part) to `shadow_abs` for one step, as [`AgentRewards::compute`] splits it.
+    pub fn add_magnitudes(&self, task: f32, phi: &[f32], lambda: &[f64], task_abs: &mut [f64], shadow_abs: &mut [f64]) {
+        let parts = self.assignment.task_weights.iter().zip(&self.assignment.features);
+        for ((w, ks), (t, z)) in parts.zip(task_abs.iter_mut().zip(shadow_abs.iter_mut())) {
+            let shadow: f64 = ks.iter().map(|&k| self.shadow.step_reward(f64::from(phi[k]), lambda[k])).sum();
+            *t += (w * f64::from(task)).abs();
+            *z += (self.alpha * shadow).abs();
+        }
+    }
+
     /// Bounds `(lo, hi)` of each agent's per-step reward, given the task reward's range.
     #[must_use]
     pub fn step_bounds(&self, task_range: (f32, f32)) -> Vec<(f64, f64)> {

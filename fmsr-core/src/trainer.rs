@@ -190,6 +190,14 @@ pub struct EpochStats {
     pub critic_loss: Vec<f64>,
     /// Mean actor loss of each agent over the epoch's updates.
     pub actor_loss: Vec<f64>,
+    /// Each agent's mean per-step task reward magnitude `|w_i r|` over this
+    /// epoch's training episodes.
+    #[serde(default)]
+    pub task_reward_abs: Vec<f64>,
+    /// Each agent's mean per-step shadow reward magnitude `|alpha sum_k z_k|`
+    /// (what `trainer.shadow.max_scale` bounds relative to the task's).
+    #[serde(default)]
+    pub shadow_reward_abs: Vec<f64>,
     /// Environment steps so far.
     pub env_steps: u64,
     /// Updates so far.
@@ -232,6 +240,8 @@ struct TrainerState {
 #[derive(Debug, Default)]
 struct EpochTally {
     returns: Vec<f64>,
+    task_abs: Vec<f64>,
+    shadow_abs: Vec<f64>,
     features: Vec<f64>,
     successes: usize,
     episodes: usize,
@@ -247,6 +257,8 @@ impl EpochTally {
     fn new(agents: usize, features: usize) -> Self {
         Self {
             returns: vec![0.0; agents],
+            task_abs: vec![0.0; agents],
+            shadow_abs: vec![0.0; agents],
             features: vec![0.0; features],
             critic_loss: vec![0.0; agents],
             actor_loss: vec![0.0; agents],
@@ -526,6 +538,7 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
             self.algorithm.store(&episode).map_err(algo_err)?;
             let returns = self.collector.observe(&episode)?;
             tally.add_episode(&episode, &returns);
+            self.collector.add_reward_magnitudes(&episode, &mut tally.task_abs, &mut tally.shadow_abs);
             self.log.push(episode, self.algorithm.storage_capacity());
         }
         self.state.stored_episodes = self.log.stored();
@@ -554,6 +567,7 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
         }
         for episode in episodes {
             tally.add_episode(&episode, &self.collector.returns(&episode));
+            self.collector.add_reward_magnitudes(&episode, &mut tally.task_abs, &mut tally.shadow_abs);
             self.log.push(episode, self.algorithm.storage_capacity());
         }
         self.state.stored_episodes = self.log.stored();
@@ -576,16 +590,26 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
             return;
         }
         let counts = [tally.successes, tally.episodes, tally.steps].map(|c| c as f64);
-        let mut v: Vec<f32> = [&tally.returns[..], &tally.features, &tally.critic_loss, &tally.actor_loss, &counts]
-            .concat()
-            .into_iter()
-            .map(|x| x as f32)
-            .collect();
+        let mut v: Vec<f32> = [
+            &tally.returns[..],
+            &tally.task_abs,
+            &tally.shadow_abs,
+            &tally.features,
+            &tally.critic_loss,
+            &tally.actor_loss,
+            &counts,
+        ]
+        .concat()
+        .into_iter()
+        .map(|x| x as f32)
+        .collect();
         self.comm.all_reduce_mean(&mut v);
         let w = workers as f64;
         let mut it = v.into_iter().map(f64::from);
         for (field, scale) in [
             (&mut tally.returns, w),
+            (&mut tally.task_abs, w),
+            (&mut tally.shadow_abs, w),
             (&mut tally.features, w),
             (&mut tally.critic_loss, 1.0),
             (&mut tally.actor_loss, 1.0),
@@ -594,6 +618,32 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
         }
         let mut count = || (it.next().unwrap_or(0.0) * w).round() as usize;
         (tally.successes, tally.episodes, tally.steps) = (count(), count(), count());
+    }
+
+    /// `trainer.shadow.max_scale`: no agent's shadow rewards may outweigh its
+    /// task rewards by more than that ratio in the first cycle.
+    fn check_shadow_scale(&self, tally: &EpochTally) -> Result<(), CoreError> {
+        let max = self.config.shadow.max_scale;
+        let names = &self.env().spec().agents;
+        for (i, (&task, &shadow)) in tally.task_abs.iter().zip(&tally.shadow_abs).enumerate() {
+            if shadow > max * task {
+                let steps = tally.steps.max(1) as f64;
+                return Err(CoreError::InvalidConfig {
+                    key: "trainer.shadow.max_scale".into(),
+                    reason: format!(
+                        "in the first cycle agent `{}`'s shadow rewards average {:.3} per step against {:.3} for \
+                         the task (ratio {:.2} > {max}): lower trainer.shadow.alpha (now {}) or raise \
+                         trainer.shadow.max_scale",
+                        names.get(i).map_or("?", |a| a.name.as_str()),
+                        shadow / steps,
+                        task / steps,
+                        shadow / task.max(f64::MIN_POSITIVE),
+                        self.config.shadow.alpha
+                    ),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// The statistics of a finished epoch.
@@ -607,6 +657,8 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
             eval_feature_rates: eval.feature_rates,
             train_feature_rates: per(&tally.features, tally.steps),
             returns: per(&tally.returns, tally.episodes),
+            task_reward_abs: per(&tally.task_abs, tally.steps),
+            shadow_reward_abs: per(&tally.shadow_abs, tally.steps),
             occupancy: self.occupancy().to_vec(),
             critic_loss: per(&tally.critic_loss, tally.loss_cycles),
             actor_loss: per(&tally.actor_loss, tally.loss_cycles),
@@ -629,8 +681,11 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
         let spec = self.env().spec();
         let mut tally = EpochTally::new(spec.agents.len(), spec.features.len());
         let steps_before = self.collector.env_steps();
-        for _ in 0..self.config.cycles {
+        for cycle in 0..self.config.cycles {
             self.collect(&mut tally)?;
+            if self.state.epoch == 0 && cycle == 0 {
+                self.check_shadow_scale(&tally)?;
+            }
             self.update(&mut tally)?;
         }
         self.state.updates += tally.updates;
