@@ -12,7 +12,7 @@ use fmsr_core::metrics::{
 };
 use fmsr_core::prelude::*;
 
-use crate::experiment::{ExperimentConfig, ExperimentError};
+use crate::experiment::{Engine, ExperimentConfig, ExperimentError};
 use crate::run::RunDir;
 
 /// The per-step series of one test episode (the paper's Fig. 4).
@@ -45,8 +45,12 @@ pub struct EvalReport {
     pub method: String,
     /// The object (`block` or `egg`).
     pub task: String,
-    /// The engine.
+    /// The engine of this evaluation.
     pub engine: String,
+    /// The engine the policy was trained on (absent in files of older
+    /// versions, which evaluated on the training engine only).
+    #[serde(default)]
+    pub trained_on: Option<String>,
     /// Epochs the policy was trained for.
     pub epochs: usize,
     /// Test episodes.
@@ -102,6 +106,26 @@ impl EvalReport {
         )
     }
 
+    /// The cells of this evaluation in the report's cross-engine table, from
+    /// the task on; `trained_on` names the training engine.
+    #[must_use]
+    pub fn cross_engine_cells(&self, trained_on: &str) -> String {
+        let s = self.stability.as_ref();
+        let drop = self.failures.drop_percent.map_or_else(|| "n/a".into(), |p| format!("{p:.1}%"));
+        format!(
+            "{} | {} | {} | {} | {:.0}% | {} | {} | {} | {} | {drop}",
+            self.task,
+            self.method,
+            self.trained_on.as_deref().unwrap_or(trained_on),
+            self.engine,
+            100.0 * self.success_rate,
+            cell(s.map(|s| s.total_contacts), 1.0, 0),
+            cell(s.map(|s| s.q_msv), 1.0, 3),
+            cell(s.map(|s| s.q_vew), 1.0, 4),
+            cell(s.and_then(|s| s.q_dcc), 1e3, 1),
+        )
+    }
+
     /// Table II's header, in Markdown.
     #[must_use]
     pub fn table2_header() -> String {
@@ -151,6 +175,19 @@ impl EvalReport {
 pub fn evaluate_run<E: Env + ContactReadout + Send>(
     config: &ExperimentConfig,
     env: E,
+    dir: &RunDir,
+    dt: f64,
+) -> Result<EvalReport, ExperimentError> {
+    evaluate_run_on(config, env, config.engine, dir, dt)
+}
+
+/// As [`evaluate_run`] with `env` an environment of `engine`, which may differ
+/// from the engine the run trained on (cross-engine evaluation): the report
+/// names both and goes to [`RunDir::eval_json_on`].
+pub fn evaluate_run_on<E: Env + ContactReadout + Send>(
+    config: &ExperimentConfig,
+    env: E,
+    engine: Engine,
     dir: &RunDir,
     dt: f64,
 ) -> Result<EvalReport, ExperimentError> {
@@ -208,7 +245,8 @@ pub fn evaluate_run<E: Env + ContactReadout + Send>(
         name: config.name.clone(),
         method: config.method.label().into(),
         task: format!("{:?}", config.env.object).to_lowercase(),
-        engine: format!("{:?}", config.engine).to_lowercase(),
+        engine: engine.key().into(),
+        trained_on: Some(config.engine.key().into()),
         epochs: trainer.epoch(),
         episodes: seeds.len(),
         threshold,
@@ -223,6 +261,6 @@ pub fn evaluate_run<E: Env + ContactReadout + Send>(
     };
     let json = serde_json::to_vec_pretty(&report)
         .map_err(|e| ExperimentError::Config { key: "eval".into(), reason: e.to_string() })?;
-    fmsr_core::trainer::write_atomic(&dir.eval_json(), &json)?;
+    fmsr_core::trainer::write_atomic(&dir.eval_json_on(engine, config.engine), &json)?;
     Ok(report)
 }

@@ -67,6 +67,21 @@ pub enum Engine {
     Mujoco,
 }
 
+impl Engine {
+    /// The engine's name in configs and file names.
+    ///
+    /// ```
+    /// assert_eq!(fmsr::experiment::Engine::Mujoco.key(), "mujoco");
+    /// ```
+    #[must_use]
+    pub fn key(self) -> &'static str {
+        match self {
+            Engine::Rapier => "rapier",
+            Engine::Mujoco => "mujoco",
+        }
+    }
+}
+
 /// The communication graph of the agents, by agent name.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields)]

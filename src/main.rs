@@ -79,6 +79,11 @@ struct EvalArgs {
     /// Test episodes, overriding the config (paper: 100).
     #[arg(long)]
     episodes: Option<usize>,
+    /// Evaluate on this engine (default: the one the run trained on); another
+    /// engine's evaluation goes to `eval-<engine>.json` and into the report's
+    /// cross-engine table.
+    #[arg(long, value_enum)]
+    engine: Option<EngineArg>,
 }
 
 #[derive(Debug, clap::Args)]
@@ -105,6 +110,15 @@ struct RunArgs {
 enum EngineArg {
     Rapier,
     Mujoco,
+}
+
+impl From<EngineArg> for Engine {
+    fn from(e: EngineArg) -> Self {
+        match e {
+            EngineArg::Rapier => Engine::Rapier,
+            EngineArg::Mujoco => Engine::Mujoco,
+        }
+    }
 }
 
 fn main() -> Result<()> {
@@ -135,7 +149,7 @@ fn main() -> Result<()> {
                 out: Some(out),
             };
             let dir = train(&train_args)?;
-            eval(&EvalArgs { run: dir.root().to_path_buf(), episodes: None })?;
+            eval(&EvalArgs { run: dir.root().to_path_buf(), episodes: None, engine: None })?;
             report(&[dir.root().to_path_buf()], &dir.root().join("report"))?;
             println!("run, logs and evaluation in {}", dir.root().display());
             Ok(())
@@ -159,10 +173,7 @@ fn resolve_config(args: &TrainArgs) -> Result<(ExperimentConfig, RunDir, bool)> 
         (config, dir)
     };
     if let Some(e) = args.engine {
-        config.engine = match e {
-            EngineArg::Rapier => Engine::Rapier,
-            EngineArg::Mujoco => Engine::Mujoco,
-        };
+        config.engine = e.into();
     }
     if let Some(seed) = args.seed {
         if resume && seed != config.trainer.seed {
@@ -283,23 +294,23 @@ fn eval(args: &EvalArgs) -> Result<()> {
         config.eval.episodes = n;
     }
     config.validate()?;
-    let summary = match config.engine {
+    let engine = args.engine.map_or(config.engine, Engine::from);
+    let dt = fmsr::experiment::MODEL_TIMESTEP * config.env.substeps as f64;
+    let summary = match engine {
         Engine::Rapier => {
             let env = config.env_config().init().context("building the rapier Shadow Hand")?;
-            let dt = fmsr::experiment::MODEL_TIMESTEP * config.env.substeps as f64;
-            fmsr::evaluate::evaluate_run(&config, env, &dir, dt)?
+            fmsr::evaluate::evaluate_run_on(&config, env, engine, &dir, dt)?
         }
         #[cfg(feature = "mujoco")]
         Engine::Mujoco => {
             let env = config.env_config().init_mujoco(Default::default()).context("building the MuJoCo Shadow Hand")?;
-            let dt = fmsr::experiment::MODEL_TIMESTEP * config.env.substeps as f64;
-            fmsr::evaluate::evaluate_run(&config, env, &dir, dt)?
+            fmsr::evaluate::evaluate_run_on(&config, env, engine, &dir, dt)?
         }
         #[cfg(not(feature = "mujoco"))]
         Engine::Mujoco => return Err(fmsr::experiment::ExperimentError::EngineUnavailable.into()),
     };
     println!("{}", summary.to_markdown());
-    println!("evaluation written to {}", dir.eval_json().display());
+    println!("evaluation written to {}", dir.eval_json_on(engine, config.engine).display());
     Ok(())
 }
 

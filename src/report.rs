@@ -22,7 +22,7 @@ use fmsr_core::config::Method;
 use fmsr_core::trainer::{EpochStats, write_atomic};
 
 use crate::evaluate::EvalReport;
-use crate::experiment::{ExperimentConfig, ExperimentError};
+use crate::experiment::{Engine, ExperimentConfig, ExperimentError};
 use crate::run::RunDir;
 
 /// One run as the report sees it.
@@ -36,6 +36,8 @@ pub struct RunRecord {
     pub metrics: Vec<EpochStats>,
     /// Its evaluation, if `fmsr eval` ran.
     pub eval: Option<EvalReport>,
+    /// Its evaluations on the other engine (`fmsr eval --engine`).
+    pub cross_evals: Vec<EvalReport>,
 }
 
 impl RunRecord {
@@ -44,22 +46,49 @@ impl RunRecord {
         let run = RunDir::new(dir);
         let config = run.load_config()?;
         let metrics = run.load_metrics()?;
-        let eval = if run.eval_json().exists() {
-            let path = run.eval_json();
-            let bytes = std::fs::read(&path).map_err(|source| ExperimentError::Io { path: path.clone(), source })?;
-            Some(
-                serde_json::from_slice(&bytes)
-                    .map_err(|e| ExperimentError::Parse { path: path.clone(), message: e.to_string() })?,
-            )
-        } else {
-            None
-        };
-        Ok(Self { dir: dir.to_path_buf(), config, metrics, eval })
+        let eval = read_eval(&run.eval_json())?;
+        let cross_evals = [Engine::Rapier, Engine::Mujoco]
+            .into_iter()
+            .filter(|&e| e != config.engine)
+            .map(|e| read_eval(&run.eval_json_on(e, config.engine)))
+            .filter_map(Result::transpose)
+            .collect::<Result<_, _>>()?;
+        Ok(Self { dir: dir.to_path_buf(), config, metrics, eval, cross_evals })
     }
 
     fn task(&self) -> String {
         format!("{:?}", self.config.env.object).to_lowercase()
     }
+}
+
+/// The evaluation in `path`, if the file exists.
+fn read_eval(path: &Path) -> Result<Option<EvalReport>, ExperimentError> {
+    if !path.exists() {
+        return Ok(None);
+    }
+    let bytes = std::fs::read(path).map_err(|source| ExperimentError::Io { path: path.into(), source })?;
+    serde_json::from_slice(&bytes)
+        .map(Some)
+        .map_err(|e| ExperimentError::Parse { path: path.into(), message: e.to_string() })
+}
+
+/// The cross-engine table: every run evaluated on another engine, beside its
+/// evaluation on its own (`None` when no run was).
+fn cross_engine_table(runs: &[RunRecord]) -> Option<String> {
+    let rows: Vec<&RunRecord> = runs.iter().filter(|r| !r.cross_evals.is_empty()).collect();
+    if rows.is_empty() {
+        return None;
+    }
+    let mut md = String::from(
+        "| Run | Task | Configuration | Trained on | Evaluated on | Success Rate | Total Contact | Q_MSV | Q_VEW | Q_DCC (1e-3 m) | Drop% |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        for e in r.eval.iter().chain(&r.cross_evals) {
+            let _ = writeln!(md, "| {} | {} |", r.dir.display(), e.cross_engine_cells(r.config.engine.key()));
+        }
+    }
+    Some(md)
 }
 
 /// What [`write_report`] wrote.
@@ -252,6 +281,11 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
     summary.push_str(&table1);
     summary.push_str("\n## Table II: failure types\n\n");
     summary.push_str(&table2);
+    if let Some(table) = cross_engine_table(runs) {
+        summary.push_str("\n## Cross-engine evaluation\n\nThe same checkpoint on the fixed test set of each engine (`fmsr eval --engine`).\n\n");
+        summary.push_str(&table);
+        write_atomic(&out.join("cross_engine.md"), table.as_bytes())?;
+    }
     summary.push_str("\n## Figures\n\n");
     for f in &files.figures {
         let name = f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();

@@ -8,6 +8,7 @@
 //! runs/<name>/metrics.jsonl    one fmsr_core::trainer::EpochStats per line
 //! runs/<name>/metrics.csv      the same, flat
 //! runs/<name>/eval.json        written by `fmsr eval`
+//! runs/<name>/eval-<engine>.json  `fmsr eval --engine` on the other engine
 //! ```
 
 use std::fmt::Write as _;
@@ -16,7 +17,7 @@ use std::path::{Path, PathBuf};
 use fmsr_core::prelude::*;
 use fmsr_core::trainer::write_atomic;
 
-use crate::experiment::{ExperimentConfig, ExperimentError};
+use crate::experiment::{Engine, ExperimentConfig, ExperimentError};
 
 /// The files of one run.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -59,6 +60,13 @@ impl RunDir {
     #[must_use]
     pub fn metrics_csv(&self) -> PathBuf {
         self.root.join("metrics.csv")
+    }
+
+    /// Where an evaluation on `engine` of a run trained on `trained_on` goes:
+    /// `eval.json` on the training engine, else `eval-<engine>.json`.
+    #[must_use]
+    pub fn eval_json_on(&self, engine: Engine, trained_on: Engine) -> PathBuf {
+        if engine == trained_on { self.eval_json() } else { self.root.join(format!("eval-{}.json", engine.key())) }
     }
 
     /// `eval.json`.

@@ -303,3 +303,48 @@ fn the_mujoco_binary_starts_without_ld_library_path() {
     let out = Command::new(FMSR).args(["assets", "path"]).env_remove("LD_LIBRARY_PATH").output().unwrap();
     assert!(out.status.success(), "{}", text(&out));
 }
+
+/// Guards cross-engine evaluation (issue 11, item 2): a policy trained on rapier
+/// is evaluated on MuJoCo's test set into `eval-mujoco.json`, and the report
+/// shows both evaluations in its cross-engine table.
+#[cfg(feature = "mujoco")]
+#[test]
+fn a_rapier_policy_is_evaluated_on_mujoco() {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = tiny_config(tmp.path(), "");
+    let run = tmp.path().join("run");
+    let run_s = run.to_str().unwrap();
+    let out = fmsr(&["train", "--config", config.to_str().unwrap(), "--out", run_s]);
+    assert!(out.status.success(), "{}", text(&out));
+    for engine in [None, Some("mujoco")] {
+        let mut args = vec!["eval", run_s];
+        args.extend(engine.map(|e| ["--engine", e]).into_iter().flatten());
+        let out = fmsr(&args);
+        assert!(out.status.success(), "{}", text(&out));
+    }
+    let cross: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(run.join("eval-mujoco.json")).unwrap()).unwrap();
+    assert_eq!((cross["engine"].as_str(), cross["trained_on"].as_str()), (Some("mujoco"), Some("rapier")));
+    let report = tmp.path().join("report");
+    let out = fmsr(&["report", run_s, "--out", report.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out));
+    let summary = std::fs::read_to_string(report.join("summary.md")).unwrap();
+    assert!(summary.contains("## Cross-engine evaluation"), "{summary}");
+    assert!(summary.contains("| rapier | rapier |") && summary.contains("| rapier | mujoco |"), "{summary}");
+}
+
+/// Without the `mujoco` feature, evaluating on MuJoCo is a clear error.
+#[cfg(not(feature = "mujoco"))]
+#[test]
+fn evaluating_on_mujoco_without_the_feature_is_a_clear_error() {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = tiny_config(tmp.path(), "");
+    let run = tmp.path().join("run");
+    let run_s = run.to_str().unwrap();
+    let out = fmsr(&["train", "--config", config.to_str().unwrap(), "--out", run_s]);
+    assert!(out.status.success(), "{}", text(&out));
+    let out = fmsr(&["eval", run_s, "--engine", "mujoco"]);
+    assert!(!out.status.success());
+    assert!(text(&out).contains("mujoco"), "{}", text(&out));
+    assert!(!run.join("eval-mujoco.json").exists());
+}
