@@ -27,6 +27,7 @@ pub mod experiment;
 pub mod mpi;
 pub mod report;
 pub mod run;
+pub mod tensorboard;
 
 pub use fmsr_core as core;
 pub use fmsr_envs as envs;

@@ -7,6 +7,7 @@
 //! runs/<name>/checkpoint.replay/  the replay log: one segment of new episodes per checkpoint
 //! runs/<name>/metrics.jsonl    one fmsr_core::trainer::EpochStats per line
 //! runs/<name>/metrics.csv      the same, flat
+//! runs/<name>/events.out.tfevents.*  the same for TensorBoard (one file per process)
 //! runs/<name>/eval.json        written by `fmsr eval`
 //! runs/<name>/eval-<engine>.json  `fmsr eval --engine` on the other engine
 //! ```
@@ -18,6 +19,7 @@ use fmsr_core::prelude::*;
 use fmsr_core::trainer::write_atomic;
 
 use crate::experiment::{Engine, ExperimentConfig, ExperimentError};
+use crate::tensorboard::EventWriter;
 
 /// The files of one run.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -186,14 +188,19 @@ pub fn train_worker<E: Env + Send>(
             reason: format!("{} already holds a run: pass --resume or choose another --out", dir.root().display()),
         });
     }
+    let mut events = None;
     if writes {
         write_atomic(&dir.config(), config.to_toml()?.as_bytes())?;
         dir.write_metrics(trainer.history())?;
+        events = Some(EventWriter::create(dir.root())?);
     }
     trainer.train(|t, stats| {
         t.save_checkpoint(&dir.checkpoint())?;
         if writes {
             dir.write_metrics(t.history())?;
+        }
+        if let Some(events) = &mut events {
+            events.write_epoch(stats, t.env().spec())?;
         }
         on_epoch(stats);
         Ok(())

@@ -69,6 +69,34 @@ fn train_eval_report_and_resume() {
     assert_eq!(std::fs::read_to_string(run.join("metrics.jsonl")).unwrap().lines().count(), 2);
     assert!(std::fs::read_to_string(run.join("config.toml")).unwrap().contains("seed = 3"));
 
+    // TensorBoard: one event file per process, whose scalars read back with the
+    // epochs' env steps and values (issue 13, item 3).
+    let metrics: Vec<serde_json::Value> = std::fs::read_to_string(run.join("metrics.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&run)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.file_name().unwrap().to_string_lossy().starts_with("events.out.tfevents."))
+        .collect();
+    files.sort();
+    assert_eq!(files.len(), 2, "{files:?}");
+    let mut success = Vec::new();
+    for f in &files {
+        let scalars = fmsr::tensorboard::scalars(&fmsr::tensorboard::read_events(f).unwrap());
+        assert!(scalars.iter().any(|(tag, ..)| tag == "agent_thumb/shadow_reward_abs"), "{scalars:?}");
+        assert!(scalars.iter().any(|(tag, ..)| tag == "occupancy/contacts"), "{scalars:?}");
+        success.extend(scalars.into_iter().filter(|(tag, ..)| tag == "success/eval").map(|(_, step, v)| (step, v)));
+    }
+    success.sort_by_key(|&(step, _)| step);
+    let expected: Vec<(i64, f32)> = metrics
+        .iter()
+        .map(|m| (m["env_steps"].as_i64().unwrap(), m["success_rate"].as_f64().unwrap() as f32))
+        .collect();
+    assert_eq!(success, expected);
+
     let out = fmsr(&["eval", run_s]);
     assert!(out.status.success(), "{}", text(&out));
     assert!(text(&out).contains("| block | Dense+FMSR+IS |"), "{}", text(&out));
