@@ -91,38 +91,41 @@ impl EvalReport {
     /// This run's row of Table I, in Markdown.
     #[must_use]
     pub fn table1_row(&self) -> String {
-        let s = self.stability.as_ref();
         format!(
-            "| {} | {} | {:.0}% | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {:.0}% | {} |\n",
             self.task,
             self.method,
             100.0 * self.success_rate,
+            self.stability_cells().join(" | ")
+        )
+    }
+
+    /// Table I's stability cells: contacts, Q_MSV, Q_VEW, |Q'_MSV|, |Q'_VEW|, Q_DCC.
+    fn stability_cells(&self) -> [String; 6] {
+        let s = self.stability.as_ref();
+        [
             cell(s.map(|s| s.total_contacts), 1.0, 0),
             cell(s.map(|s| s.q_msv), 1.0, 3),
             cell(s.map(|s| s.q_vew), 1.0, 4),
             cell(s.and_then(|s| s.dq_msv), 1.0, 3),
             cell(s.and_then(|s| s.dq_vew), 1.0, 4),
             cell(s.and_then(|s| s.q_dcc), 1e3, 1),
-        )
+        ]
     }
 
     /// The cells of this evaluation in the report's cross-engine table, from
     /// the task on; `trained_on` names the training engine.
     #[must_use]
     pub fn cross_engine_cells(&self, trained_on: &str) -> String {
-        let s = self.stability.as_ref();
         let drop = self.failures.drop_percent.map_or_else(|| "n/a".into(), |p| format!("{p:.1}%"));
         format!(
-            "{} | {} | {} | {} | {:.0}% | {} | {} | {} | {} | {drop}",
+            "{} | {} | {} | {} | {:.0}% | {} | {drop}",
             self.task,
             self.method,
             self.trained_on.as_deref().unwrap_or(trained_on),
             self.engine,
             100.0 * self.success_rate,
-            cell(s.map(|s| s.total_contacts), 1.0, 0),
-            cell(s.map(|s| s.q_msv), 1.0, 3),
-            cell(s.map(|s| s.q_vew), 1.0, 4),
-            cell(s.and_then(|s| s.q_dcc), 1e3, 1),
+            self.stability_cells().join(" | ")
         )
     }
 

@@ -80,8 +80,8 @@ fn cross_engine_table(runs: &[RunRecord]) -> Option<String> {
         return None;
     }
     let mut md = String::from(
-        "| Run | Task | Configuration | Trained on | Evaluated on | Success Rate | Total Contact | Q_MSV | Q_VEW | Q_DCC (1e-3 m) | Drop% |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| Run | Task | Configuration | Trained on | Evaluated on | Success Rate | Total Contact | Q_MSV | Q_VEW | \\|Q'_MSV\\| | \\|Q'_VEW\\| | Q_DCC (1e-3 m) | Drop% |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         for e in r.eval.iter().chain(&r.cross_evals) {

@@ -107,10 +107,9 @@ impl EventWriter {
         let path = dir.join(format!("events.out.tfevents.{:010}.fmsr.{}", now.as_secs(), std::process::id()));
         let file = std::fs::File::create(&path).map_err(io(&path))?;
         let mut writer = Self { path, file };
-        writer.write(0, What::FileVersion("brain.Event:2".into())).map_err(|e| match e {
-            CoreError::Io { path, source } => ExperimentError::Io { path, source },
-            other => ExperimentError::Core(other),
-        })?;
+        writer
+            .write(0, What::FileVersion("brain.Event:2".into()))
+            .map_err(|source| ExperimentError::Io { path: writer.path.clone(), source })?;
         Ok(writer)
     }
 
@@ -120,7 +119,7 @@ impl EventWriter {
         &self.path
     }
 
-    fn write(&mut self, step: i64, what: What) -> Result<(), CoreError> {
+    fn write(&mut self, step: i64, what: What) -> std::io::Result<()> {
         let now = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
         let event = Event { wall_time: now.as_secs_f64(), step, what: Some(what) };
         let body = event.encode_to_vec();
@@ -130,10 +129,7 @@ impl EventWriter {
         record.extend_from_slice(&masked_crc(&len).to_le_bytes());
         record.extend_from_slice(&body);
         record.extend_from_slice(&masked_crc(&body).to_le_bytes());
-        self.file
-            .write_all(&record)
-            .and_then(|()| self.file.flush())
-            .map_err(|source| CoreError::Io { path: self.path.clone(), source })
+        self.file.write_all(&record).and_then(|()| self.file.flush())
     }
 
     /// Appends one epoch's scalars (see the [module docs](self)) at its env step count.
@@ -168,6 +164,7 @@ impl EventWriter {
         }
         let step = i64::try_from(stats.env_steps).unwrap_or(i64::MAX);
         self.write(step, What::Summary(Summary { value: values }))
+            .map_err(|source| CoreError::Io { path: self.path.clone(), source })
     }
 }
 

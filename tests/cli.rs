@@ -5,28 +5,27 @@
 //! with a message that names the key; each algorithm trains on the hand; a
 //! run killed at any moment resumes to the uninterrupted run's history.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 const FMSR: &str = env!("CARGO_BIN_EXE_fmsr");
 
-/// The quick block config cut down to seconds, with small networks.
+/// The tiny config (`common::tiny_config_text`) with `extra` appended, written into `dir`.
 fn tiny_config(dir: &Path, extra: &str) -> PathBuf {
-    let base = std::fs::read_to_string("configs/block_dense_fmsr_is_quick.toml").unwrap();
-    let text = base
-        .replace("name = \"block_dense_fmsr_is_quick\"", "name = \"tiny\"")
-        .replace("epochs = 5", "epochs = 1")
-        .replace("cycles = 10", "cycles = 1")
-        .replace("batches = 20", "batches = 2")
-        .replace("batch_size = 256", "batch_size = 32")
-        .replace("eval_episodes = 5", "eval_episodes = 1")
-        .replace("episodes = 100", "episodes = 2")
-        .replace("hidden = 256", "hidden = 32")
-        .replace("layers = 3", "layers = 2");
-    assert_ne!(text, base, "the quick config changed: update this test");
     let path = dir.join("tiny.toml");
-    std::fs::write(&path, format!("{text}\n{extra}")).unwrap();
+    std::fs::write(&path, format!("{}\n{extra}", common::tiny_config_text())).unwrap();
     path
+}
+
+/// A run of the tiny config trained for one epoch in `dir/run`.
+fn trained_tiny_run(dir: &Path) -> PathBuf {
+    let config = tiny_config(dir, "");
+    let run = dir.join("run");
+    let out = fmsr(&["train", "--config", config.to_str().unwrap(), "--out", run.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out));
+    run
 }
 
 fn fmsr(args: &[&str]) -> std::process::Output {
@@ -339,11 +338,8 @@ fn the_mujoco_binary_starts_without_ld_library_path() {
 #[test]
 fn a_rapier_policy_is_evaluated_on_mujoco() {
     let tmp = tempfile::tempdir().unwrap();
-    let config = tiny_config(tmp.path(), "");
-    let run = tmp.path().join("run");
+    let run = trained_tiny_run(tmp.path());
     let run_s = run.to_str().unwrap();
-    let out = fmsr(&["train", "--config", config.to_str().unwrap(), "--out", run_s]);
-    assert!(out.status.success(), "{}", text(&out));
     for engine in [None, Some("mujoco")] {
         let mut args = vec!["eval", run_s];
         args.extend(engine.map(|e| ["--engine", e]).into_iter().flatten());
@@ -366,11 +362,8 @@ fn a_rapier_policy_is_evaluated_on_mujoco() {
 #[test]
 fn evaluating_on_mujoco_without_the_feature_is_a_clear_error() {
     let tmp = tempfile::tempdir().unwrap();
-    let config = tiny_config(tmp.path(), "");
-    let run = tmp.path().join("run");
+    let run = trained_tiny_run(tmp.path());
     let run_s = run.to_str().unwrap();
-    let out = fmsr(&["train", "--config", config.to_str().unwrap(), "--out", run_s]);
-    assert!(out.status.success(), "{}", text(&out));
     let out = fmsr(&["eval", run_s, "--engine", "mujoco"]);
     assert!(!out.status.success());
     assert!(text(&out).contains("mujoco"), "{}", text(&out));

@@ -9,6 +9,8 @@
 //!
 //! Started by mpirun (as each rank), it runs the TeamReach part.
 
+mod common;
+
 use std::path::Path;
 use std::process::{Command, Output};
 use std::sync::Arc;
@@ -117,35 +119,11 @@ fn rank_main() {
     let mpi = Mpi::init().unwrap();
     let comm = Arc::new(mpi.communicator());
     let method = Method::DenseFmsrIs;
-    let env = TeamReachConfig { reward: method.reward(), ..TeamReachConfig::default() }.init().unwrap();
-    let graph = Graph::ring(3);
-    let layout = ObservationLayout::from_graph(env.spec().clone(), &graph).unwrap();
-    let sharing = SharingConfig { enabled: true, ..SharingConfig::default() }.build(&graph).unwrap();
-    let config = TrainerConfig {
-        seed: 3,
-        epochs: 10,
-        cycles: 10,
-        episodes_per_cycle: 2,
-        eval_episodes: 20,
-        shadow: ShadowConfig {
-            enabled: true,
-            alpha: 0.05,
-            assignment: Some(RewardAssignment {
-                agents: vec![
-                    AgentReward { agent: "x".into(), task_weight: 1.0, shadow: vec![] },
-                    AgentReward { agent: "y".into(), task_weight: 1.0, shadow: vec![] },
-                    AgentReward { agent: "w".into(), task_weight: 1.0, shadow: vec!["safe_region".into()] },
-                ],
-            }),
-            ..ShadowConfig::default()
-        },
-        ..TrainerConfig::default()
-    };
-    let net = NetworkConfig::new().with_hidden(64).with_layers(2).with_seed(3);
-    let replay = ReplayConfig { buffer_size: 100_000, batch_size: 128, batches: 20, ..ReplayConfig::default() };
-    let parts = LearnerParts::new(layout.clone(), net, replay, config.gamma_for(env.spec().episode_len))
-        .with_sharing(sharing)
+    let config = common::trainer_config(method, 3, 10);
+    let env = common::team_reach(method);
+    let parts = common::parts(&env, method, 3, config.gamma_for(env.spec().episode_len))
         .with_communicator(Box::new(comm.clone()));
+    let layout = parts.layout.clone();
     let learner = Checked { inner: Maddpg::new(parts, MaddpgConfig::new()).unwrap(), comm: comm.clone(), updates: 0 };
     let mut trainer = Trainer::new(config, env, learner, layout).unwrap().with_communicator(comm.clone()).unwrap();
     trainer.train(|_, _| Ok(())).unwrap();
@@ -184,20 +162,12 @@ fn the_cli_trains_and_resumes_on_two_ranks() {
     println!("mpi: the CLI trains, resumes and refuses other rank counts");
 }
 
-/// The quick block config cut down to seconds (as tests/cli.rs).
+/// The tiny config of the CLI tests with totals that split over 1, 2 and 3
+/// ranks, so the rank count is what a resume checks.
 fn tiny_config(dir: &Path) -> std::path::PathBuf {
-    let base = std::fs::read_to_string("configs/block_dense_fmsr_is_quick.toml").unwrap();
-    let text = base
-        .replace("epochs = 5", "epochs = 1")
-        // A total that splits over 1, 2 and 3 ranks, so the rank count is what a resume checks.
+    let text = common::tiny_config_text()
         .replace("episodes_per_cycle = 2", "episodes_per_cycle = 6")
-        .replace("cycles = 10", "cycles = 1")
-        .replace("batches = 20", "batches = 2")
-        .replace("batch_size = 256", "batch_size = 48")
-        .replace("eval_episodes = 5", "eval_episodes = 1")
-        .replace("episodes = 100", "episodes = 2")
-        .replace("hidden = 256", "hidden = 32")
-        .replace("layers = 3", "layers = 2");
+        .replace("batch_size = 32", "batch_size = 48");
     let path = dir.join("tiny.toml");
     std::fs::write(&path, text).unwrap();
     path

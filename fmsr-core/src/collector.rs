@@ -75,6 +75,17 @@ fn env_err<E: std::error::Error + Send + Sync + 'static>(e: E) -> CoreError {
     CoreError::Env(Box::new(e))
 }
 
+/// Per-agent sums of one episode's rewards ([`Collector::reward_sums`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RewardSums {
+    /// Undiscounted returns (task and shadow rewards, eq. 7).
+    pub returns: Vec<f64>,
+    /// Sums of `|w_i r|`, the task parts.
+    pub task_abs: Vec<f64>,
+    /// Sums of `|alpha sum_k z_k|`, the shadow parts.
+    pub shadow_abs: Vec<f64>,
+}
+
 /// Runs episodes and keeps the occupancy estimate; see the [module docs](self).
 #[derive(Debug)]
 pub struct Collector<E, O = DiscountedOccupancy, S = LogUtility> {
@@ -178,7 +189,7 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
     /// Features outside `[0, 1]` or of the wrong length.
     pub fn observe(&mut self, episode: &Episode) -> Result<Vec<f64>, CoreError> {
         self.occupancy.observe_episode(&episode.features())?;
-        Ok(self.returns(episode))
+        Ok(self.reward_sums(episode).returns)
     }
 
     /// Updates the occupancy estimate with one episode's features
@@ -190,28 +201,24 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
         self.occupancy.observe_episode(features)
     }
 
-    /// Adds each agent's per-step reward magnitudes over `episode` under the
-    /// current estimate to `task_abs` (`|w_i r|`) and `shadow_abs` (`|alpha sum_k z_k|`).
-    pub fn add_reward_magnitudes(&self, episode: &Episode, task_abs: &mut [f64], shadow_abs: &mut [f64]) {
-        for (t, info) in episode.infos.iter().enumerate() {
-            let o = &episode.observations[t + 1];
-            let task = self.envs[0].goal_reward(&o.achieved_goal, &o.desired_goal);
-            self.rewards.add_magnitudes(task, &info.features, self.occupancy.estimate(), task_abs, shadow_abs);
-        }
-    }
-
-    /// Each agent's undiscounted return of `episode` under the current estimate.
+    /// Each agent's sums over `episode` under the current estimate: its
+    /// undiscounted return and the magnitudes of its task and shadow parts.
     #[must_use]
-    pub fn returns(&self, episode: &Episode) -> Vec<f64> {
-        let mut returns = vec![0.0f64; self.rewards.num_agents()];
-        let mut step = vec![0.0f32; returns.len()];
+    pub fn reward_sums(&self, episode: &Episode) -> RewardSums {
+        let n = self.rewards.num_agents();
+        let mut sums = RewardSums { returns: vec![0.0; n], task_abs: vec![0.0; n], shadow_abs: vec![0.0; n] };
         for (t, info) in episode.infos.iter().enumerate() {
             let o = &episode.observations[t + 1];
             let task = self.envs[0].goal_reward(&o.achieved_goal, &o.desired_goal);
-            self.agent_rewards(task, &info.features, &mut step);
-            returns.iter_mut().zip(&step).for_each(|(r, v)| *r += f64::from(*v));
+            for (i, (task_part, shadow_part)) in
+                self.rewards.parts(task, &info.features, self.occupancy.estimate()).enumerate()
+            {
+                sums.returns[i] += f64::from((task_part + shadow_part) as f32);
+                sums.task_abs[i] += task_part.abs();
+                sums.shadow_abs[i] += shadow_part.abs();
+            }
         }
-        returns
+        sums
     }
 
     /// The (first) environment.

@@ -38,30 +38,17 @@ struct Segment {
     episodes: Vec<Episode>,
 }
 
-/// The episodes stored since the last checkpoint, and how many were stored
-/// in all. Holds at most `window` episodes: older ones can never be needed again.
+/// The episodes stored since the last checkpoint (the count of all stored
+/// episodes is the trainer's). Holds at most `window` episodes: older ones can
+/// never be needed again.
 #[derive(Debug, Clone, Default)]
 pub struct ReplayLog {
     pending: VecDeque<Episode>,
-    stored: u64,
 }
 
 impl ReplayLog {
-    /// A log that continues after `stored` episodes, with nothing pending.
-    #[must_use]
-    pub fn resumed(stored: u64) -> Self {
-        Self { pending: VecDeque::new(), stored }
-    }
-
-    /// Episodes stored since training started.
-    #[must_use]
-    pub fn stored(&self) -> u64 {
-        self.stored
-    }
-
     /// Records one stored episode; keeps at most `window` pending.
     pub fn push(&mut self, episode: Episode, window: usize) {
-        self.stored += 1;
         self.pending.push_back(episode);
         while self.pending.len() > window {
             self.pending.pop_front();
@@ -76,28 +63,18 @@ impl ReplayLog {
         checkpoint.with_file_name(name)
     }
 
-    /// Writes the pending episodes as one segment in `dir` and forgets them.
-    ///
-    /// # Errors
-    /// I/O errors.
-    pub fn flush(&mut self, dir: &Path) -> Result<(), CoreError> {
-        match self.take_segment()? {
-            Some((name, bytes)) => crate::trainer::write_atomic(&dir.join(name), &bytes),
-            None => Ok(()),
-        }
-    }
-
     /// The pending episodes as one segment, its file name and bytes (none if
-    /// nothing is pending), forgetting them: what [`ReplayLog::flush`] writes,
-    /// for a caller that writes elsewhere (worker 0 writes every worker's).
+    /// nothing is pending), forgetting them; `stored` episodes have been stored
+    /// in all, the pending ones last. The caller writes the file into the
+    /// segment folder ([`ReplayLog::dir`]); worker 0 writes every worker's.
     ///
     /// # Errors
     /// [`CoreError::Corrupt`] when an episode cannot be encoded.
-    pub fn take_segment(&mut self) -> Result<Option<(String, Vec<u8>)>, CoreError> {
+    pub fn take_segment(&mut self, stored: u64) -> Result<Option<(String, Vec<u8>)>, CoreError> {
         if self.pending.is_empty() {
             return Ok(None);
         }
-        let first = self.stored - self.pending.len() as u64;
+        let first = stored.saturating_sub(self.pending.len() as u64);
         let name = format!("{first:020}.{EXTENSION}");
         let segment = Segment { first, episodes: self.pending.drain(..).collect() };
         let bytes = persist::encode(MAGIC, VERSION, &segment)
@@ -196,6 +173,13 @@ mod tests {
         }
     }
 
+    /// Writes the pending episodes' segment, as a checkpoint does.
+    fn flush(log: &mut ReplayLog, dir: &Path, stored: u64) {
+        if let Some((name, bytes)) = log.take_segment(stored).unwrap() {
+            crate::trainer::write_atomic(&dir.join(name), &bytes).unwrap();
+        }
+    }
+
     fn ids(episodes: &[Episode]) -> Vec<u64> {
         episodes.iter().map(|e| e.observations[0].global[0] as u64).collect()
     }
@@ -210,9 +194,8 @@ mod tests {
         let mut log = ReplayLog::default();
         for checkpoint in 0..4 {
             (0..5).for_each(|k| log.push(episode(checkpoint * 5 + k), 8));
-            log.flush(&seg).unwrap();
+            flush(&mut log, &seg, checkpoint * 5 + 5);
         }
-        assert_eq!(log.stored(), 20);
         assert_eq!(ids(&ReplayLog::read(&seg, 0, 20).unwrap()), (0..20).collect::<Vec<_>>());
         assert_eq!(ids(&ReplayLog::read(&seg, 7, 13).unwrap()), (7..13).collect::<Vec<_>>());
         ReplayLog::prune(&seg, 12).unwrap();
@@ -221,7 +204,7 @@ mod tests {
         assert!(err.to_string().contains("lacks episode 3 of 3..20"), "{err}");
         // The window bounds what is pending: only the newest 8 of 30 are written.
         (20..50).for_each(|e| log.push(episode(e), 8));
-        log.flush(&seg).unwrap();
+        flush(&mut log, &seg, 50);
         assert_eq!(ids(&ReplayLog::read(&seg, 42, 50).unwrap()), (42..50).collect::<Vec<_>>());
         assert!(ReplayLog::read(&seg, 40, 50).is_err());
     }
@@ -234,9 +217,9 @@ mod tests {
         let seg = dir.path().join("c.replay");
         let mut log = ReplayLog::default();
         (0..4).for_each(|e| log.push(episode(e), 100));
-        log.flush(&seg).unwrap();
+        flush(&mut log, &seg, 4);
         (4..6).for_each(|e| log.push(episode(e), 100));
-        log.flush(&seg).unwrap();
+        flush(&mut log, &seg, 6);
         assert_eq!(ids(&ReplayLog::read(&seg, 0, 4).unwrap()), vec![0, 1, 2, 3]);
         let path = seg.join(format!("{:020}.seg", 4));
         let mut bytes = std::fs::read(&path).unwrap();

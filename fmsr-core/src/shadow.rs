@@ -273,21 +273,18 @@ impl<S: ShadowReward> AgentRewards<S> {
     /// Writes each agent's reward for a step with task reward `task`, features
     /// `phi` and occupancy estimate `lambda` into `out` (one value per agent).
     pub fn compute(&self, task: f32, phi: &[f32], lambda: &[f64], out: &mut [f32]) {
-        for ((o, w), ks) in out.iter_mut().zip(&self.assignment.task_weights).zip(&self.assignment.features) {
-            let shadow: f64 = ks.iter().map(|&k| self.shadow.step_reward(f64::from(phi[k]), lambda[k])).sum();
-            *o = (w * f64::from(task) + self.alpha * shadow) as f32;
+        for (o, (task_part, shadow_part)) in out.iter_mut().zip(self.parts(task, phi, lambda)) {
+            *o = (task_part + shadow_part) as f32;
         }
     }
 
-    /// Adds each agent's `|w_i r|` (task part) to `task_abs` and `|alpha sum_k z_k|`
-    /// (shadow part) to `shadow_abs` for one step, as [`AgentRewards::compute`] splits it.
-    pub fn add_magnitudes(&self, task: f32, phi: &[f32], lambda: &[f64], task_abs: &mut [f64], shadow_abs: &mut [f64]) {
-        let parts = self.assignment.task_weights.iter().zip(&self.assignment.features);
-        for ((w, ks), (t, z)) in parts.zip(task_abs.iter_mut().zip(shadow_abs.iter_mut())) {
+    /// Each agent's reward for a step split into its task part `w_i r` and its
+    /// shadow part `alpha sum_{k in S_i} z_k` (eq. 7); [`AgentRewards::compute`] adds them.
+    pub fn parts<'a>(&'a self, task: f32, phi: &'a [f32], lambda: &'a [f64]) -> impl Iterator<Item = (f64, f64)> + 'a {
+        self.assignment.task_weights.iter().zip(&self.assignment.features).map(move |(w, ks)| {
             let shadow: f64 = ks.iter().map(|&k| self.shadow.step_reward(f64::from(phi[k]), lambda[k])).sum();
-            *t += (w * f64::from(task)).abs();
-            *z += (self.alpha * shadow).abs();
-        }
+            (w * f64::from(task), self.alpha * shadow)
+        })
     }
 
     /// Bounds `(lo, hi)` of each agent's per-step reward, given the task reward's range.

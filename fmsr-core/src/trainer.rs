@@ -25,7 +25,7 @@ use std::sync::Arc;
 
 use crate::agent::{Communicator, ObservationLayout, SingleProcess};
 use crate::algorithm::{Algorithm, UpdateStats};
-use crate::collector::Collector;
+use crate::collector::{Collector, RewardSums};
 use crate::config::ShadowConfig;
 use crate::env::Env;
 use crate::error::CoreError;
@@ -266,8 +266,11 @@ impl EpochTally {
         }
     }
 
-    fn add_episode(&mut self, episode: &Episode, returns: &[f64]) {
-        self.returns.iter_mut().zip(returns).for_each(|(a, r)| *a += r);
+    fn add_episode(&mut self, episode: &Episode, sums: &RewardSums) {
+        let add = |acc: &mut Vec<f64>, v: &[f64]| acc.iter_mut().zip(v).for_each(|(a, x)| *a += x);
+        add(&mut self.returns, &sums.returns);
+        add(&mut self.task_abs, &sums.task_abs);
+        add(&mut self.shadow_abs, &sums.shadow_abs);
         accumulate_features(&episode.infos, &mut self.features);
         self.successes += usize::from(episode.infos.last().is_some_and(|i| i.is_success));
         self.episodes += 1;
@@ -525,31 +528,27 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
     }
 
     /// Collect and store: one cycle's exploring rollouts, each stored by the
-    /// algorithm and observed by the occupancy estimator (with several workers:
-    /// every worker's episodes, in rank order).
+    /// algorithm; the occupancy estimator observes the cycle's episodes of every
+    /// worker, in rank order, and the epoch's sums use the updated estimate.
     fn collect(&mut self, tally: &mut EpochTally) -> Result<(), CoreError> {
         let n = self.config.worker_episodes(self.comm.workers())?;
         let seeds: Vec<u64> = (0..n).map(|_| self.state.rng.random::<u64>()).collect();
         let episodes = self.collector.rollouts(&mut self.algorithm, &seeds, ActMode::Explore)?;
-        if self.comm.workers() > 1 {
-            return self.collect_workers(episodes, tally);
-        }
-        for episode in episodes {
-            self.algorithm.store(&episode).map_err(algo_err)?;
-            let returns = self.collector.observe(&episode)?;
-            tally.add_episode(&episode, &returns);
-            self.collector.add_reward_magnitudes(&episode, &mut tally.task_abs, &mut tally.shadow_abs);
-            self.log.push(episode, self.algorithm.storage_capacity());
-        }
-        self.state.stored_episodes = self.log.stored();
-        Ok(())
-    }
-
-    /// [`Trainer::collect`]'s storing and observing with several workers.
-    fn collect_workers(&mut self, episodes: Vec<Episode>, tally: &mut EpochTally) -> Result<(), CoreError> {
         for episode in &episodes {
             self.algorithm.store(episode).map_err(algo_err)?;
         }
+        self.observe_every_worker(&episodes)?;
+        for episode in episodes {
+            tally.add_episode(&episode, &self.collector.reward_sums(&episode));
+            self.log.push(episode, self.algorithm.storage_capacity());
+            self.state.stored_episodes += 1;
+        }
+        Ok(())
+    }
+
+    /// The occupancy estimator observes the features of every worker's
+    /// `episodes` (all of them `T` steps long), in rank order.
+    fn observe_every_worker(&mut self, episodes: &[Episode]) -> Result<(), CoreError> {
         let (steps, k) = (self.env().spec().episode_len, self.env().spec().features.len());
         let local: Vec<f32> = episodes.iter().flat_map(|e| e.infos.iter().flat_map(|i| i.features.clone())).collect();
         if local.len() != episodes.len() * steps * k {
@@ -565,12 +564,6 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
             let features: Vec<Vec<f32>> = (0..steps).map(|t| episode[t * k..(t + 1) * k].to_vec()).collect();
             self.collector.observe_features(&features)?;
         }
-        for episode in episodes {
-            tally.add_episode(&episode, &self.collector.returns(&episode));
-            self.collector.add_reward_magnitudes(&episode, &mut tally.task_abs, &mut tally.shadow_abs);
-            self.log.push(episode, self.algorithm.storage_capacity());
-        }
-        self.state.stored_episodes = self.log.stored();
         Ok(())
     }
 
@@ -838,7 +831,10 @@ where
     /// # Errors
     /// I/O errors, and errors of the algorithm's `save_state`.
     pub fn save_checkpoint(&mut self, path: &Path) -> Result<(), CoreError> {
-        let files = WorkerFiles { segment: self.log.take_segment()?, checkpoint: self.checkpoint_bytes(path)? };
+        let files = WorkerFiles {
+            segment: self.log.take_segment(self.state.stored_episodes)?,
+            checkpoint: self.checkpoint_bytes(path)?,
+        };
         let all = if self.comm.workers() <= 1 {
             vec![files]
         } else {
@@ -963,7 +959,7 @@ where
     fn apply_checkpoint(&mut self, meta: CheckpointMeta<O>, algorithm: &[u8]) -> Result<(), CoreError> {
         self.algorithm.load_state(algorithm).map_err(algo_err)?;
         self.collector.restore(meta.occupancy, meta.env_steps);
-        self.log = ReplayLog::resumed(meta.state.stored_episodes);
+        self.log = ReplayLog::default();
         self.state = meta.state;
         Ok(())
     }

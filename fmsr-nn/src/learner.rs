@@ -107,8 +107,6 @@ pub(crate) struct Learner {
     pub(crate) layout: ObservationLayout,
     pub(crate) net: NetworkConfig,
     pub(crate) replay_config: ReplayConfig,
-    /// This worker's share of `replay_config.batch_size`.
-    batch: usize,
     pub(crate) gamma: f64,
     pub(crate) sharing: InformationSharing,
     pub(crate) comm: Box<dyn Communicator>,
@@ -309,7 +307,7 @@ impl Learner {
         let LearnerParts { layout, networks: net, replay: replay_config, gamma, sharing, comm, device } = parts;
         net.validate()?;
         replay_config.validate().map_err(|e| NnError::InvalidConfig { key: "replay", reason: e.to_string() })?;
-        let batch = replay_config.worker_batch(comm.workers()).map_err(|_| NnError::InvalidConfig {
+        replay_config.worker_batch(comm.workers()).map_err(|_| NnError::InvalidConfig {
             key: "replay.batch_size",
             reason: format!(
                 "{} is the total over all worker processes and must split evenly over {}",
@@ -340,7 +338,6 @@ impl Learner {
             layout,
             net,
             replay_config,
-            batch,
             gamma,
             sharing,
             comm,
@@ -425,7 +422,8 @@ impl Learner {
         let b = self
             .replay
             .sample(
-                self.batch,
+                // This worker's share; `new` checked that it divides evenly.
+                self.replay_config.batch_size / self.comm.workers(),
                 &self.replay_config.her,
                 &self.layout,
                 &mut self.rng,

@@ -29,6 +29,23 @@ pub fn trainer_config(method: Method, seed: u64, epochs: usize) -> TrainerConfig
     }
 }
 
+/// The quick block config (`configs/`) cut down to seconds, with small networks.
+pub fn tiny_config_text() -> String {
+    let base = std::fs::read_to_string("configs/block_dense_fmsr_is_quick.toml").unwrap();
+    let text = base
+        .replace("name = \"block_dense_fmsr_is_quick\"", "name = \"tiny\"")
+        .replace("epochs = 5", "epochs = 1")
+        .replace("cycles = 10", "cycles = 1")
+        .replace("batches = 20", "batches = 2")
+        .replace("batch_size = 256", "batch_size = 32")
+        .replace("eval_episodes = 5", "eval_episodes = 1")
+        .replace("episodes = 100", "episodes = 2")
+        .replace("hidden = 256", "hidden = 32")
+        .replace("layers = 3", "layers = 2");
+    assert_ne!(text, base, "the quick config changed: update this function");
+    text
+}
+
 /// The replay and update schedule of the tests.
 pub fn replay() -> ReplayConfig {
     ReplayConfig { buffer_size: 100_000, batch_size: 128, batches: 20, ..ReplayConfig::default() }
