@@ -172,6 +172,26 @@ impl EvalReport {
     }
 }
 
+/// The outcome of a test episode (Table II): success when the final goal
+/// distance is below `threshold`, else a drop if the object was dropped at any
+/// step, else incomplete.
+///
+/// ```
+/// use fmsr::core::metrics::{EpisodeOutcome, FailureType};
+/// assert_eq!(fmsr::evaluate::classify(0.1, 0.4, true), EpisodeOutcome::Success);
+/// assert_eq!(fmsr::evaluate::classify(1.0, 0.4, true), EpisodeOutcome::Failure(FailureType::Drop));
+/// ```
+#[must_use]
+pub fn classify(final_distance: f32, threshold: f32, dropped: bool) -> EpisodeOutcome {
+    if final_distance < threshold {
+        EpisodeOutcome::Success
+    } else if dropped {
+        EpisodeOutcome::Failure(FailureType::Drop)
+    } else {
+        EpisodeOutcome::Failure(FailureType::Incomplete)
+    }
+}
+
 /// Evaluates the policy of the run in `dir` (its last checkpoint) on `env`, on
 /// the fixed test set of `config.eval`, and writes `eval.json`. `dt` is the
 /// duration of one env step (s), for the derivatives.
@@ -221,13 +241,7 @@ pub fn evaluate_run_on<E: Env + ContactReadout + Send>(
         }
         let d = distances.last().copied().unwrap_or(f32::INFINITY);
         final_distances.push(d);
-        outcomes.record(if d < threshold {
-            EpisodeOutcome::Success
-        } else if episode.infos.iter().any(|i| i.dropped) {
-            EpisodeOutcome::Failure(FailureType::Drop)
-        } else {
-            EpisodeOutcome::Failure(FailureType::Incomplete)
-        });
+        outcomes.record(classify(d, threshold, episode.infos.iter().any(|i| i.dropped)));
         if let Some(summary) = trace.summary() {
             summaries.push(summary);
         }

@@ -332,6 +332,14 @@ pub enum ExperimentError {
         #[source]
         source: CoreError,
     },
+    /// A frame or an image file could not be drawn or encoded.
+    #[error("rendering {what}: {reason}")]
+    Render {
+        /// What was being drawn or written.
+        what: String,
+        /// Why it failed.
+        reason: String,
+    },
     /// A core error (trainer, checkpoint, graph).
     #[error(transparent)]
     Core(#[from] CoreError),

@@ -25,6 +25,7 @@ pub mod evaluate;
 pub mod experiment;
 #[cfg(feature = "mpi")]
 pub mod mpi;
+pub mod render;
 pub mod report;
 pub mod run;
 pub mod tensorboard;

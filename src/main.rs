@@ -27,6 +27,8 @@ enum Command {
     Eval(EvalArgs),
     /// Write the paper's tables and figures over several runs (Tables I and II, Figs. 3 and 4).
     Report(ReportArgs),
+    /// Draw one test episode of a trained run's policy as an animated GIF (or PNG frames), headless.
+    Render(RenderArgs),
     /// The main job: train the default experiment (block, Dense+FMSR+IS, rapier, quick budget),
     /// evaluate it and write the report.
     Run(RunArgs),
@@ -97,6 +99,27 @@ struct ReportArgs {
 }
 
 #[derive(Debug, clap::Args)]
+struct RenderArgs {
+    /// The run directory (its last checkpoint plays the episode).
+    run: PathBuf,
+    /// Which episode of the fixed test set (0-based).
+    #[arg(long, default_value_t = 0)]
+    episode: usize,
+    /// Simulate on this engine (default: the one the run trained on).
+    #[arg(long, value_enum)]
+    engine: Option<EngineArg>,
+    /// A `.gif` file, or a directory for PNG frames (default `RUN/render/episode-K-ENGINE.gif`).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Frame width (pixels).
+    #[arg(long, default_value_t = 320)]
+    width: usize,
+    /// Frame height (pixels).
+    #[arg(long, default_value_t = 240)]
+    height: usize,
+}
+
+#[derive(Debug, clap::Args)]
 struct RunArgs {
     /// The experiment (TOML).
     #[arg(long, default_value = "configs/block_dense_fmsr_is_quick.toml")]
@@ -127,6 +150,12 @@ fn main() -> Result<()> {
         Command::Train(args) => train(&args).map(|_| ()),
         Command::Eval(args) => eval(&args),
         Command::Report(args) => report(&args.runs, &args.out),
+        Command::Render(args) => {
+            for file in render(&args)? {
+                println!("wrote {}", file.display());
+            }
+            Ok(())
+        }
         Command::Assets(AssetsCommand::Fetch { dir }) => {
             let assets = fmsr_envs::shadow_hand::assets::fetch_hand_assets(dir.as_deref())?;
             println!("{}", assets.root.display());
@@ -314,7 +343,54 @@ fn eval(args: &EvalArgs) -> Result<()> {
     Ok(())
 }
 
+fn render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
+    use fmsr::render::{RenderTarget, record_episode};
+    let dir = RunDir::new(&args.run);
+    let config = dir.load_config().context("reading the run's config.toml")?;
+    let engine = args.engine.map_or(config.engine, Engine::from);
+    let target = match &args.out {
+        Some(out) => RenderTarget::from_path(out)?,
+        None => RenderTarget::default_for(&dir, args.episode, engine),
+    };
+    let film = match engine {
+        Engine::Rapier => {
+            let env = config.env_config().init().context("building the rapier Shadow Hand")?;
+            record_episode(&config, env, engine, &dir, args.episode)?
+        }
+        #[cfg(feature = "mujoco")]
+        Engine::Mujoco => {
+            let env = config.env_config().init_mujoco(Default::default()).context("building the MuJoCo Shadow Hand")?;
+            record_episode(&config, env, engine, &dir, args.episode)?
+        }
+        #[cfg(not(feature = "mujoco"))]
+        Engine::Mujoco => return Err(fmsr::experiment::ExperimentError::EngineUnavailable.into()),
+    };
+    let scene = fmsr::render::load_scene(&config)?;
+    let camera = fmsr::envs::shadow_hand::render::Camera::gym(args.width, args.height);
+    Ok(fmsr::render::write_film(&scene, &film, &camera, &target)?)
+}
+
+/// Renders test episode 0 of each run on its own engine, unless already drawn
+/// (the report shows its frame strip and links the GIF).
+fn render_for_report(runs: &[PathBuf]) {
+    for run in runs {
+        let dir = RunDir::new(run);
+        let Ok(config) = dir.load_config() else { continue };
+        let target = fmsr::render::RenderTarget::default_for(&dir, 0, config.engine);
+        if target.strip_path().is_some_and(|p| p.exists()) || !dir.checkpoint().exists() {
+            continue;
+        }
+        let args = RenderArgs { run: run.clone(), episode: 0, engine: None, out: None, width: 320, height: 240 };
+        // A run the report can still tabulate (an old checkpoint format, an engine
+        // not built in) is reported without its rendering; the summary lists it.
+        if let Err(e) = render(&args) {
+            eprintln!("warning: not rendering {}: {e:#}", run.display());
+        }
+    }
+}
+
 fn report(runs: &[PathBuf], out: &std::path::Path) -> Result<()> {
+    render_for_report(runs);
     let records = runs
         .iter()
         .map(|r| fmsr::report::RunRecord::load(r).with_context(|| format!("reading the run {}", r.display())))

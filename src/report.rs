@@ -38,6 +38,8 @@ pub struct RunRecord {
     pub eval: Option<EvalReport>,
     /// Its evaluations on the other engine (`fmsr eval --engine`).
     pub cross_evals: Vec<EvalReport>,
+    /// Test episode 0 drawn by `fmsr render` on its own engine: the GIF and its frame strip.
+    pub rendering: Option<(PathBuf, PathBuf)>,
 }
 
 impl RunRecord {
@@ -53,7 +55,14 @@ impl RunRecord {
             .map(|e| read_eval(&run.eval_json_on(e, config.engine)))
             .filter_map(Result::transpose)
             .collect::<Result<_, _>>()?;
-        Ok(Self { dir: dir.to_path_buf(), config, metrics, eval, cross_evals })
+        let target = crate::render::RenderTarget::default_for(&run, 0, config.engine);
+        let rendering = match (&target, target.strip_path()) {
+            (crate::render::RenderTarget::Gif(gif), Some(strip)) if gif.exists() && strip.exists() => {
+                Some((gif.clone(), strip))
+            }
+            _ => None,
+        };
+        Ok(Self { dir: dir.to_path_buf(), config, metrics, eval, cross_evals, rendering })
     }
 
     fn task(&self) -> String {
@@ -91,6 +100,39 @@ fn cross_engine_table(runs: &[RunRecord]) -> Option<String> {
     Some(md)
 }
 
+/// Copies each run's rendered test episode into `out/render/` and returns the
+/// summary's section: per run, the strip of its first, middle and last frames and a
+/// link to the GIF.
+fn renderings_section(runs: &[RunRecord], out: &Path) -> Result<String, ExperimentError> {
+    let mut md = String::from("## Test episode 0, rendered\n\n");
+    md.push_str("The first episode of the fixed test set, played by each run's policy on its own engine (`fmsr render`): first, middle and last step.\n\n");
+    let dir = out.join("render");
+    let mut missing = Vec::new();
+    for (i, r) in runs.iter().enumerate() {
+        let Some((gif, strip)) = &r.rendering else {
+            missing.push(r.dir.display().to_string());
+            continue;
+        };
+        std::fs::create_dir_all(&dir).map_err(|source| ExperimentError::Io { path: dir.clone(), source })?;
+        let stem = format!("{i:02}-{}", r.config.name);
+        for (from, ext) in [(gif, "gif"), (strip, "png")] {
+            let to = dir.join(format!("{stem}.{ext}"));
+            std::fs::copy(from, &to).map_err(|source| ExperimentError::Io { path: to.clone(), source })?;
+        }
+        let _ = writeln!(
+            md,
+            "**{}** ({}, {}): [animation](render/{stem}.gif)\n\n![{stem}](render/{stem}.png)\n",
+            r.dir.display(),
+            r.config.method.label(),
+            r.config.engine.key()
+        );
+    }
+    if !missing.is_empty() {
+        let _ = writeln!(md, "Not rendered (run `fmsr render RUN`): {}\n", missing.join(", "));
+    }
+    Ok(md)
+}
+
 /// What [`write_report`] wrote.
 #[derive(Debug, Clone, Default)]
 pub struct ReportFiles {
@@ -111,7 +153,7 @@ fn method_color(m: Method) -> RGBColor {
 
 static FONT: Once = Once::new();
 
-fn register_font() {
+pub(crate) fn register_font() {
     FONT.call_once(|| {
         // The bytes are embedded by the `dejavu` crate, so no system font is needed.
         plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
@@ -291,6 +333,7 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
         let name = f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         let _ = writeln!(summary, "![{name}]({name})\n");
     }
+    summary.push_str(&renderings_section(runs, out)?);
     summary.push_str("## Runs\n\n");
     summary.push_str(&runs_md);
     if !missing_eval.is_empty() {

@@ -108,10 +108,63 @@ fn train_eval_report_and_resume() {
     assert!(out.status.success(), "{}", text(&out));
     let summary = std::fs::read_to_string(report.join("summary.md")).unwrap();
     assert!(summary.contains("Table I") && summary.contains("Dense+FMSR+IS"), "{summary}");
-    for f in ["fig3_block.png", "fig4_block.png"] {
+    for f in ["fig3_block.png", "fig4_block.png", "render/00-tiny.png"] {
         let png = std::fs::read(report.join(f)).unwrap();
         assert_eq!(&png[..4], b"\x89PNG", "{f} is not a PNG");
     }
+    // The report draws test episode 0 of each run and shows its frame strip (issue 13, item 2).
+    assert!(summary.contains("## Test episode 0, rendered"), "{summary}");
+    assert!(summary.contains("](render/00-tiny.gif)") && summary.contains("](render/00-tiny.png)"), "{summary}");
+    assert!(run.join("render/episode-0-rapier.gif").exists());
+}
+
+/// The RGBA frames of a GIF file.
+fn gif_frames(path: &Path) -> Vec<Vec<u8>> {
+    let mut options = gif::DecodeOptions::new();
+    options.set_color_output(gif::ColorOutput::RGBA);
+    let mut decoder = options.read_info(std::fs::File::open(path).unwrap()).unwrap();
+    let mut frames = Vec::new();
+    while let Some(frame) = decoder.read_next_frame().unwrap() {
+        frames.push(frame.buffer.to_vec());
+    }
+    frames
+}
+
+/// Fraction of RGBA pixels differing by more than 8 in some channel.
+fn changed(a: &[u8], b: &[u8]) -> f64 {
+    let n = a.chunks(4).zip(b.chunks(4)).filter(|(p, q)| p.iter().zip(*q).any(|(x, y)| x.abs_diff(*y) > 8)).count();
+    n as f64 / (a.len() / 4) as f64
+}
+
+// Guards `fmsr render` (issue 13, item 1): a GIF of one frame per env step whose
+// frames are not blank and change as the hand moves; PNG frames into a
+// directory; clear errors for an episode outside the test set and an unknown format.
+#[test]
+fn render_writes_a_gif_and_png_frames_of_a_test_episode() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = trained_tiny_run(tmp.path());
+    let (run_s, gif) = (run.to_str().unwrap(), tmp.path().join("ep.gif"));
+    let out =
+        fmsr(&["render", run_s, "--episode", "1", "--out", gif.to_str().unwrap(), "--width", "160", "--height", "120"]);
+    assert!(out.status.success(), "{}", text(&out));
+    let frames = gif_frames(&gif);
+    assert_eq!(frames.len(), 100, "one frame per step of the tiny config's 100-step episode");
+    let colors = frames[0].chunks(4).collect::<std::collections::HashSet<_>>().len();
+    assert!(colors > 20, "the first frame has {colors} colours");
+    let moved = changed(&frames[0], &frames[99]);
+    assert!(moved > 0.005, "the last frame differs from the first in {moved:.4} of the pixels");
+    assert!(tmp.path().join("ep-strip.png").exists());
+
+    let dir = tmp.path().join("frames");
+    let out = fmsr(&["render", run_s, "--out", dir.to_str().unwrap(), "--width", "64", "--height", "48"]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 100);
+    assert_eq!(&std::fs::read(dir.join("frame-000.png")).unwrap()[..4], b"\x89PNG");
+
+    let out = fmsr(&["render", run_s, "--episode", "2"]);
+    assert!(!out.status.success() && text(&out).contains("episode 2 is not in the test set"), "{}", text(&out));
+    let out = fmsr(&["render", run_s, "--out", tmp.path().join("ep.mp4").to_str().unwrap()]);
+    assert!(!out.status.success() && text(&out).contains("`.mp4` is not an output format"), "{}", text(&out));
 }
 
 #[test]
@@ -355,6 +408,23 @@ fn a_rapier_policy_is_evaluated_on_mujoco() {
     let summary = std::fs::read_to_string(report.join("summary.md")).unwrap();
     assert!(summary.contains("## Cross-engine evaluation"), "{summary}");
     assert!(summary.contains("| rapier | rapier |") && summary.contains("| rapier | mujoco |"), "{summary}");
+
+    // The same policy drawn on MuJoCo, through the same model (issue 13, item 1).
+    let gif = tmp.path().join("mujoco.gif");
+    let out = fmsr(&[
+        "render",
+        run_s,
+        "--engine",
+        "mujoco",
+        "--out",
+        gif.to_str().unwrap(),
+        "--width",
+        "64",
+        "--height",
+        "48",
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert_eq!(gif_frames(&gif).len(), 100);
 }
 
 /// Without the `mujoco` feature, evaluating on MuJoCo is a clear error.

@@ -9,6 +9,8 @@
 //!   or, with the cargo feature `mujoco`, on MuJoCo 3.17 (`ShadowHandConfig::init_mujoco`).
 //!   The task code is shared; only the physics ([`shadow_hand::HandPhysics`]) differs.
 //!   The agents are a partition of the 20 actuators ([`shadow_hand::HandAgent`]).
+//! - [`shadow_hand::render`]: a headless CPU renderer of the hand, the object and
+//!   the goal from gymnasium-robotics' camera, for either engine's episodes.
 //!
 //! ## Features
 //!

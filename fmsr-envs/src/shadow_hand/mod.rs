@@ -33,6 +33,7 @@ pub mod model;
 pub mod mujoco;
 pub mod physics;
 pub mod rapier;
+pub mod render;
 
 use std::f64::consts::PI;
 use std::path::PathBuf;
@@ -440,6 +441,23 @@ impl<P: HandPhysics> ShadowHand<P> {
     #[must_use]
     pub fn angle_error(&self) -> f32 {
         self.goal_distance(&self.achieved_goal(), &self.goal)
+    }
+
+    /// What a rendered frame of the current state shows ([`render::HandScene::render`]).
+    #[must_use]
+    pub fn view(&self) -> render::HandView {
+        let mut qpos = vec![0.0; HAND_JOINTS.len()];
+        self.physics.hand_qpos(&mut qpos);
+        let (object_position, object_quaternion) = self.physics.object_pose();
+        let g = self.goal.map(f64::from);
+        render::HandView {
+            qpos,
+            object_position,
+            object_quaternion,
+            goal_position: [g[0], g[1], g[2]],
+            goal_quaternion: [g[3], g[4], g[5], g[6]],
+            touch_active: self.physics.touch().iter().map(|&t| t > self.config.touch_threshold).collect(),
+        }
     }
 
     /// Distance of the object centre from the palm centre (m).
