@@ -13,7 +13,7 @@ use fmsr_core::spec::JointAction;
 use fmsr_core::{ContactReadout, Env};
 use fmsr_envs::shadow_hand::model::{ACTUATORS, HAND_JOINTS};
 use fmsr_envs::shadow_hand::{
-    HandObject, HandPhysics, RapierHand, ShadowHandConfig, fetch_hand_assets, load_rapier_model,
+    HandObject, HandPhysics, RapierHand, RapierSettings, ShadowHandConfig, fetch_hand_assets, load_rapier_model,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -78,9 +78,14 @@ fn joints_track_position_targets() {
     }
 }
 
+// The backs of the fingers do not touch the block; they may touch each other
+// (the little fingertip's back rests on the ring finger), which MuJoCo's touch
+// rule counts, so the backs are checked with sensors that read only the object.
 #[test]
 fn touch_sensors_under_resting_block_fire_and_backs_do_not() {
-    let mut h = hand();
+    let assets = fetch_hand_assets(None).unwrap();
+    let model = load_rapier_model(&assets, HandObject::Block).unwrap();
+    let mut h = RapierHand::new(model, RapierSettings::object_touch_without_torsion()).unwrap();
     hold(&mut h, 0.0, 1.0);
     let names = h.touch_names().to_vec();
     let active: Vec<&String> = names.iter().zip(h.touch()).filter(|(_, t)| **t > 0.0).map(|(n, _)| n).collect();
@@ -152,4 +157,52 @@ fn contact_readout_matches_touch_and_object() {
     // The hand carries the block from below: some contact normal points up into it.
     assert!(up > 0.5, "largest upward normal component {up}");
     assert_eq!(out.info.features.len(), 2);
+}
+
+// Guards `RapierSettings::touch_every_contact` (MuJoCo's touch rule): with the
+// object out of the hand, a fist's finger-on-finger contacts register on the
+// touch sensors, and they do not when sensors read only the object's contacts.
+#[test]
+fn touch_sensors_read_finger_on_finger_contacts_as_mujoco_does() {
+    let assets = fetch_hand_assets(None).unwrap();
+    let model = load_rapier_model(&assets, HandObject::Block).unwrap();
+    let mut active = Vec::new();
+    for every in [true, false] {
+        let settings = RapierSettings { touch_every_contact: every, ..RapierSettings::default() };
+        let mut h = RapierHand::new(model.clone(), settings).unwrap();
+        h.set_object_pose([3.0, 3.0, 0.1], [1.0, 0.0, 0.0, 0.0]);
+        let fist: Vec<f64> = h.ctrl_range().iter().map(|r| r[1]).collect();
+        h.set_ctrl(&fist);
+        let mut most = 0;
+        for _ in 0..25 {
+            h.step(20);
+            most = most.max(h.touch().iter().filter(|&&t| t > 0.0).count());
+        }
+        active.push(most);
+    }
+    assert!(active[0] >= 2, "a fist touches itself: {} sensors active", active[0]);
+    assert_eq!(active[1], 0, "without the object, object-only sensors stay silent");
+}
+
+// Guards `RapierSettings::torsional_friction`: it acts on the object's
+// condim-4 contacts (a block spun on the palm turns less with it than without).
+#[test]
+fn torsional_friction_slows_a_block_spun_on_the_palm() {
+    let assets = fetch_hand_assets(None).unwrap();
+    let model = load_rapier_model(&assets, HandObject::Block).unwrap();
+    let mut turned = Vec::new();
+    for torsion in [true, false] {
+        let settings = RapierSettings { torsional_friction: torsion, ..RapierSettings::default() };
+        let mut h = RapierHand::new(model.clone(), settings).unwrap();
+        let mid: Vec<f64> = h.ctrl_range().iter().map(|r| (r[0] + r[1]) / 2.0).collect();
+        h.set_ctrl(&mid);
+        h.step(200);
+        let yaw = |q: [f64; 4]| (2.0 * (q[0] * q[3] + q[1] * q[2])).atan2(1.0 - 2.0 * (q[2] * q[2] + q[3] * q[3]));
+        let start = yaw(h.object_pose().1);
+        h.set_object_velocity([0.0; 3], [0.0, 0.0, 30.0]);
+        h.step(2);
+        turned.push((yaw(h.object_pose().1) - start).abs());
+    }
+    println!("yaw turned in 4 ms after a 30 rad/s spin: with torsion {:.5}, without {:.5}", turned[0], turned[1]);
+    assert!(turned[0] < turned[1], "{turned:?}");
 }

@@ -26,6 +26,13 @@
 //!   group bit, and a physics hook on those colliders drops the pairs that only that
 //!   bit admitted and are not listed.
 //!
+//! - **touch sensors read every contact** of their body inside their box, finger
+//!   on finger included, as MuJoCo's do ([`RapierSettings::touch_every_contact`]);
+//! - **torsional friction** of the object's `condim="4"` contacts
+//!   ([`RapierSettings::torsional_friction`]), which rapier's solver lacks: an
+//!   angular impulse after each step, bounded by the friction coefficient times
+//!   the normal impulse.
+//!
 //! Not modelled: the pairs' `condim="1"` (they keep friction), the slack of the
 //! J1/J0 tendon (MuJoCo's `T_xxJ1c` allows `|c_0 q_0 + c_k q_k| <= 0.001`, i.e.
 //! +-0.14 rad on J0; ours is an equality), the other tendon limits, MuJoCo's
@@ -75,6 +82,11 @@ use crate::error::EnvError;
 /// core of a 2-core machine shared with other builds, load average 4-5, so only
 /// the ratios between rows mean much.) The default is the setting closest to
 /// MuJoCo's rest height and tracking error, at ~6x the speed of `fine()`.
+/// (The active-touch column predates [`RapierSettings::touch_every_contact`]:
+/// the sensors then read only the object's contacts. With every contact, as
+/// MuJoCo counts them, random actions give 5.20 active sensors a step against
+/// MuJoCo's 4.86; `examples/engine_parity.rs` measures both fidelity settings
+/// against MuJoCo, and `docs/results.md` holds its table.)
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RapierSettings {
@@ -90,6 +102,15 @@ pub struct RapierSettings {
     pub prediction_distance: f64,
     /// Reuse contacts of pairs that barely moved (`IntegrationParameters::contact_recycling`).
     pub contact_recycling: bool,
+    /// Touch sensors read every contact of their body inside their box, as
+    /// MuJoCo's do (finger on finger included), not only the object's contacts.
+    pub touch_every_contact: bool,
+    /// Torsional friction of `condim >= 4` contacts (the object's `condim="4"`):
+    /// after each step, the spin of the object about each contact normal
+    /// relative to the touching body is opposed by an angular impulse of at most
+    /// `mu_torsion` x the contact's normal impulse (MuJoCo's second friction
+    /// coefficient, 0.005 m here), never more than stops that spin.
+    pub torsional_friction: bool,
 }
 
 impl Default for RapierSettings {
@@ -101,6 +122,8 @@ impl Default for RapierSettings {
             stabilization_iterations: 1,
             prediction_distance: 0.002,
             contact_recycling: true,
+            touch_every_contact: true,
+            torsional_friction: true,
         }
     }
 }
@@ -111,6 +134,21 @@ impl RapierSettings {
     #[must_use]
     pub fn fine() -> Self {
         Self { timestep: 0.002, solver_iterations: 2, pgs_iterations: 1, ..Self::default() }
+    }
+
+    /// The default solver without the two fidelity settings: touch sensors read
+    /// only the object's contacts and contacts have no torsional friction (how
+    /// every run before issue 11's fidelity work was simulated), for comparisons.
+    ///
+    /// ```
+    /// use fmsr_envs::shadow_hand::RapierSettings;
+    /// let before = RapierSettings::object_touch_without_torsion();
+    /// assert!(!before.touch_every_contact && !before.torsional_friction);
+    /// assert_eq!(before.timestep, RapierSettings::default().timestep);
+    /// ```
+    #[must_use]
+    pub fn object_touch_without_torsion() -> Self {
+        Self { touch_every_contact: false, torsional_friction: false, ..Self::default() }
     }
 }
 
@@ -142,6 +180,8 @@ pub struct RapierHandModel {
     groups: HashMap<(usize, usize), InteractionGroups>,
     /// The `<contact><pair>` geoms, as (body index, collider index in body).
     pairs: Vec<((usize, usize), (usize, usize))>,
+    /// `(condim, torsional friction coefficient)` per (body index, collider index in body).
+    torsion: HashMap<(usize, usize), (u32, f64)>,
     gravity: Vector,
     /// The model's `<option timestep>` (0.002 s).
     model_timestep: f64,
@@ -208,6 +248,7 @@ impl RapierHandModel {
         // Sites and geoms by name, from the parsed model.
         let mut sites = HashMap::new();
         let mut geom_classes = HashMap::new();
+        let mut geom_torsion = HashMap::new();
         for entry in &model.bodies {
             let body_name = entry.body.name.clone().unwrap_or_default();
             for s in &entry.body.sites {
@@ -218,6 +259,7 @@ impl RapierHandModel {
             for g in &entry.body.geoms {
                 if let Some(n) = &g.name {
                     geom_classes.insert(n.clone(), (g.contype, g.conaffinity));
+                    geom_torsion.insert(n.clone(), (g.condim, g.friction[1]));
                 }
             }
         }
@@ -290,6 +332,11 @@ impl RapierHandModel {
                 Some((*a, *b))
             })
             .collect::<Vec<_>>();
+        let torsion = robot
+            .geom_name_to_collider
+            .iter()
+            .filter_map(|(geom, key)| geom_torsion.get(geom).map(|t| (*key, *t)))
+            .collect();
         if pairs.len() != robot.contact_pairs.len() {
             return Err(EnvError::Model("a <contact><pair> names a geom without a collider".into()));
         }
@@ -365,6 +412,7 @@ impl RapierHandModel {
             palm_center_local,
             groups,
             pairs,
+            torsion,
             gravity,
             model_timestep,
         })
@@ -406,6 +454,8 @@ pub struct RapierHand {
     /// (multibody joint handle, free axis) of each hand joint.
     joint_dofs: Vec<(MultibodyJointHandle, usize)>,
     hooks: PairHooks,
+    /// `(condim, torsional friction coefficient)` of each collider of the model.
+    torsion: HashMap<ColliderHandle, (u32, f64)>,
     ctrl: Vec<Real>,
     touch_sum: Vec<f64>,
     touch: Vec<f64>,
@@ -516,6 +566,7 @@ impl RapierHand {
             })
             .collect();
         let n_act = model.ctrl_range.len();
+        let torsion = model.torsion.iter().filter_map(|(&key, &t)| collider_of(key).map(|h| (h, t))).collect();
         Self {
             settings,
             world,
@@ -527,6 +578,7 @@ impl RapierHand {
             palm,
             joint_dofs,
             hooks,
+            torsion,
             ctrl: vec![0.0; n_act],
             touch_sum: vec![0.0; NUM_TOUCH],
             touch: vec![0.0; NUM_TOUCH],
@@ -573,13 +625,34 @@ impl RapierHand {
         }
     }
 
+    /// Calls `f(point, normal impulse, body1, body2)` for every active contact
+    /// point of the scene.
+    fn for_each_contact(&self, mut f: impl FnMut(Vector, Real, Option<RigidBodyHandle>, Option<RigidBodyHandle>)) {
+        let colliders = &self.world.colliders;
+        for pair in self.world.narrow_phase.contact_pairs() {
+            let (Some(c1), Some(c2)) = (colliders.get(pair.collider1), colliders.get(pair.collider2)) else {
+                continue;
+            };
+            let PairContacts::Rigid(rigid) = &pair.contacts else { continue };
+            for m in &rigid.manifolds {
+                for pt in m.points.iter().filter(|pt| pt.data.impulse > 0.0) {
+                    let p1 = c1.position().transform_point(pt.local_p1);
+                    let p2 = c2.position().transform_point(pt.local_p2);
+                    f((p1 + p2) * 0.5, pt.data.impulse, c1.parent(), c2.parent());
+                }
+            }
+        }
+    }
+
+    /// Adds the normal forces of this step's contacts to the touch sensors whose
+    /// box holds them: every contact of the sensor's body
+    /// ([`RapierSettings::touch_every_contact`], MuJoCo's rule), or only the object's.
     fn accumulate_touch(&mut self) {
         let dt = self.world.integration_parameters.dt;
         let mut hits: Vec<(usize, f64)> = Vec::new();
         let bodies = &self.world.bodies;
-        self.for_each_object_contact(|p, _n, impulse, other| {
-            let Some(other) = other else { return };
-            let (Some(sensors), Some(rb)) = (self.sensors_of_body.get(&other), bodies.get(other)) else { return };
+        let mut read = |p: Vector, impulse: Real, body: RigidBodyHandle| {
+            let (Some(sensors), Some(rb)) = (self.sensors_of_body.get(&body), bodies.get(body)) else { return };
             let local_body = rb.position().inverse_transform_point(p);
             for &i in sensors {
                 let s = &self.model.touch_sites[i];
@@ -588,9 +661,55 @@ impl RapierHand {
                     hits.push((i, f64::from(impulse / dt)));
                 }
             }
-        });
+        };
+        if self.settings.touch_every_contact {
+            self.for_each_contact(|p, impulse, b1, b2| {
+                for body in [b1, b2].into_iter().flatten() {
+                    read(p, impulse, body);
+                }
+            });
+        } else {
+            self.for_each_object_contact(|p, _n, impulse, other| {
+                if let Some(other) = other {
+                    read(p, impulse, other);
+                }
+            });
+        }
         for (i, f) in hits {
             self.touch_sum[i] += f;
+        }
+    }
+
+    /// [`RapierSettings::torsional_friction`]: opposes the object's spin about
+    /// each contact normal, relative to the touching body, by an angular impulse
+    /// bounded by `mu_torsion` x the manifold's normal impulse (MuJoCo's
+    /// `condim = 4` friction cone in its torsional direction).
+    fn apply_torsional_friction(&mut self) {
+        let object_torsion = self.torsion.get(&self.object_collider).copied().unwrap_or((3, 0.0));
+        let mut manifolds: Vec<(Vector, Real, Vector)> = Vec::new();
+        let (colliders, bodies) = (&self.world.colliders, &self.world.bodies);
+        for pair in self.world.narrow_phase.contact_pairs_with(self.object_collider) {
+            let PairContacts::Rigid(rigid) = &pair.contacts else { continue };
+            let other = if pair.collider1 == self.object_collider { pair.collider2 } else { pair.collider1 };
+            let (condim, mu) = self.torsion.get(&other).copied().unwrap_or((3, 0.0));
+            let mu = mu.max(object_torsion.1) as Real;
+            if condim.max(object_torsion.0) < 4 || mu <= 0.0 {
+                continue;
+            }
+            let (Some(c1), Some(c_other)) = (colliders.get(pair.collider1), colliders.get(other)) else { continue };
+            let w_other = c_other.parent().and_then(|b| bodies.get(b)).map_or(Vector::ZERO, |b| b.angvel());
+            for m in &rigid.manifolds {
+                let normal_impulse: Real = m.points.iter().map(|p| p.data.impulse.max(0.0)).sum();
+                if normal_impulse > 0.0 {
+                    manifolds.push(((c1.position().rotation * m.local_n1).normalize(), mu * normal_impulse, w_other));
+                }
+            }
+        }
+        let object = &mut self.world.bodies[self.object];
+        for (n, limit, w_other) in manifolds {
+            let spin = (object.angvel() - w_other).dot(n);
+            let per_unit = n.dot(object.mass_properties().effective_world_inv_inertia * n);
+            object.apply_torque_impulse(-n * torsional_impulse(spin, per_unit, limit), true);
         }
     }
 
@@ -603,6 +722,14 @@ impl RapierHand {
         let qd = if v.is_empty() { 0.0 } else { v[0] };
         (f64::from(q), f64::from(qd))
     }
+}
+
+/// The torsional friction impulse (about the contact normal, against the spin)
+/// for a relative `spin` (rad/s) when a unit impulse changes the spin by
+/// `per_unit`: what stops the spin, at most `limit` (`mu_torsion` x the normal
+/// impulse); zero when the body cannot turn about the normal.
+fn torsional_impulse(spin: Real, per_unit: Real, limit: Real) -> Real {
+    if per_unit > 0.0 && limit > 0.0 { (spin / per_unit).clamp(-limit, limit) } else { 0.0 }
 }
 
 /// Points on the ellipsoid of semi-axes `r`: the poles and `lat - 1` rings of `lon` points.
@@ -701,6 +828,9 @@ impl HandPhysics for RapierHand {
         for _ in 0..steps {
             self.world.step_with_events(&self.hooks, &());
             self.accumulate_touch();
+            if self.settings.torsional_friction {
+                self.apply_torsional_friction();
+            }
         }
         let n = steps as f64;
         for (t, s) in self.touch.iter_mut().zip(&self.touch_sum) {
@@ -758,8 +888,38 @@ impl HandPhysics for RapierHand {
 }
 
 impl RapierHand {
+    /// Sets the object's linear and angular velocity (world frame; for tests and tools).
+    pub fn set_object_velocity(&mut self, linear: [f64; 3], angular: [f64; 3]) {
+        let v = |a: [f64; 3]| Vector::new(a[0] as Real, a[1] as Real, a[2] as Real);
+        let rb = &mut self.world.bodies[self.object];
+        rb.set_linvel(v(linear), true);
+        rb.set_angvel(v(angular), true);
+    }
+
     /// Whether `h` is one of the model's bodies other than the object (i.e. the hand).
     fn is_hand_body(&self, h: RigidBodyHandle) -> bool {
         h != self.object && self.body_handles.contains(&Some(h))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    proptest! {
+        // Guards the torsional friction impulse: bounded by the friction limit,
+        // against the spin, and never reversing it.
+        #[test]
+        fn the_torsional_impulse_is_bounded_and_never_reverses_the_spin(
+            spin in -50.0f32..50.0, per_unit in 0.0f32..1e5, limit in 0.0f32..1e-3,
+        ) {
+            let j = torsional_impulse(spin, per_unit, limit);
+            prop_assert!(j.abs() <= limit);
+            prop_assert!(j * spin >= 0.0);
+            let after = spin - j * per_unit;
+            prop_assert!(after * spin >= -1e-4 * spin.abs().max(1.0));
+        }
     }
 }
