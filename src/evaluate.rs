@@ -69,6 +69,10 @@ pub struct EvalReport {
     pub episode_summaries: Vec<EpisodeSummary>,
     /// Final goal distance of each test episode (rad).
     pub final_distances: Vec<f32>,
+    /// Goal distance of each test episode at its start, after the reset (rad;
+    /// absent in files of older versions).
+    #[serde(default)]
+    pub initial_distances: Vec<f32>,
     /// The per-step series of the first test episode.
     pub trace: EpisodeTrace,
     /// Wall time of the evaluation (s).
@@ -154,6 +158,30 @@ impl EvalReport {
         )
     }
 
+    /// The chance level of this test set: the success rate of a policy that
+    /// holds the object still, i.e. the fraction of episodes that start within
+    /// the threshold (`None` for files of older versions). With the goal and the
+    /// start drawn uniformly about Z, it tends to `threshold / pi` (12.7 % at 0.4 rad).
+    #[must_use]
+    pub fn still_success_rate(&self) -> Option<f64> {
+        let n = self.initial_distances.len();
+        (n > 0).then(|| self.initial_distances.iter().filter(|&&d| d < self.threshold).count() as f64 / n as f64)
+    }
+
+    /// Test success against chance, in words.
+    #[must_use]
+    pub fn against_chance(&self) -> String {
+        match self.still_success_rate() {
+            Some(still) => format!(
+                "test success {:.0}% against {:.0}% for a policy that never turns the object (the episodes that start within {} rad)",
+                100.0 * self.success_rate,
+                100.0 * still,
+                self.threshold
+            ),
+            None => format!("test success {:.0}% (chance level not recorded)", 100.0 * self.success_rate),
+        }
+    }
+
     /// Both tables for this run.
     #[must_use]
     pub fn to_markdown(&self) -> String {
@@ -168,6 +196,7 @@ impl EvalReport {
         out.push('\n');
         out.push_str(&Self::table2_header());
         out.push_str(&self.table2_row());
+        let _ = writeln!(out, "\n{}: {}.", self.name, self.against_chance());
         out
     }
 }
@@ -222,6 +251,7 @@ pub fn evaluate_run_on<E: Env + ContactReadout + Send>(
     let mut outcomes = FailureCounts::new();
     let mut summaries = Vec::with_capacity(seeds.len());
     let mut final_distances = Vec::with_capacity(seeds.len());
+    let mut initial_distances = Vec::with_capacity(seeds.len());
     let mut first_trace = None;
     for &seed in &seeds {
         let mut trace = GraspTrace::new(dt)?;
@@ -238,6 +268,9 @@ pub fn evaluate_run_on<E: Env + ContactReadout + Send>(
         })?;
         if let Some(e) = metric_error {
             return Err(e.into());
+        }
+        if let Some(o) = episode.observations.first() {
+            initial_distances.push(trainer.env().goal_distance(&o.achieved_goal, &o.desired_goal));
         }
         let d = distances.last().copied().unwrap_or(f32::INFINITY);
         final_distances.push(d);
@@ -273,6 +306,7 @@ pub fn evaluate_run_on<E: Env + ContactReadout + Send>(
         outcomes,
         episode_summaries: summaries,
         final_distances,
+        initial_distances,
         trace: first_trace.unwrap_or_default(),
         seconds: start.elapsed().as_secs_f64(),
     };

@@ -133,6 +133,19 @@ fn renderings_section(runs: &[RunRecord], out: &Path) -> Result<String, Experime
     Ok(md)
 }
 
+/// Each evaluated run's test success beside the chance level of its test set.
+fn chance_section(runs: &[RunRecord]) -> String {
+    let mut md = String::from(
+        "\n## Against chance\n\nA policy that never turns the object succeeds in the test episodes that start within the threshold; a result near that level has not learned to rotate.\n\n| Run | Configuration | Test success | Never turning |\n|---|---|---|---|\n",
+    );
+    for r in runs {
+        let Some(e) = &r.eval else { continue };
+        let still = e.still_success_rate().map_or_else(|| "not recorded".into(), |p| format!("{:.0}%", 100.0 * p));
+        let _ = writeln!(md, "| {} | {} | {:.0}% | {still} |", r.dir.display(), e.method, 100.0 * e.success_rate);
+    }
+    md
+}
+
 /// What [`write_report`] wrote.
 #[derive(Debug, Clone, Default)]
 pub struct ReportFiles {
@@ -323,6 +336,7 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
     summary.push_str(&table1);
     summary.push_str("\n## Table II: failure types\n\n");
     summary.push_str(&table2);
+    summary.push_str(&chance_section(runs));
     if let Some(table) = cross_engine_table(runs) {
         summary.push_str("\n## Cross-engine evaluation\n\nThe same checkpoint on the fixed test set of each engine (`fmsr eval --engine`).\n\n");
         summary.push_str(&table);

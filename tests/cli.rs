@@ -102,12 +102,16 @@ fn train_eval_report_and_resume() {
     let eval: serde_json::Value = serde_json::from_slice(&std::fs::read(run.join("eval.json")).unwrap()).unwrap();
     assert_eq!(eval["episodes"], 2);
     assert_eq!(eval["trace"]["q_msv"].as_array().unwrap().len(), 100);
+    // The chance level of the test set travels with the evaluation (issue 11, item 5).
+    assert_eq!(eval["initial_distances"].as_array().unwrap().len(), 2);
+    assert!(text(&out).contains("for a policy that never turns the object"), "{}", text(&out));
 
     let report = tmp.path().join("report");
     let out = fmsr(&["report", run_s, "--out", report.to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out));
     let summary = std::fs::read_to_string(report.join("summary.md")).unwrap();
     assert!(summary.contains("Table I") && summary.contains("Dense+FMSR+IS"), "{summary}");
+    assert!(summary.contains("## Against chance") && summary.contains("| Never turning |"), "{summary}");
     for f in ["fig3_block.png", "fig4_block.png", "render/00-tiny.png"] {
         let png = std::fs::read(report.join(f)).unwrap();
         assert_eq!(&png[..4], b"\x89PNG", "{f} is not a PNG");
