@@ -10,9 +10,7 @@ steps of 20 substeps at zero action; then gymnasium's own `step` for each action
 OUT: one line of the 153 observation values (touch as sensordata) per step,
 starting with the one after settling.
 
-gymnasium-robotics 1.4.2 compares `model.jnt_type[i]` with `mujoco.mjtJoint`
-members, which fails with mujoco 3.17's bindings; the joint helpers are replaced
-by equivalents that use `int(model.jnt_type[i])`.
+gymnasium-robotics 1.4.2 needs gym_patch.py (beside this file) on mujoco 3.17.
 """
 
 import math
@@ -22,41 +20,7 @@ import gymnasium as gym
 import gymnasium_robotics
 import mujoco
 import numpy as np
-from gymnasium_robotics.utils import mujoco_utils
-
-_NQ = {int(mujoco.mjtJoint.mjJNT_FREE): 7, int(mujoco.mjtJoint.mjJNT_BALL): 4}
-_NV = {int(mujoco.mjtJoint.mjJNT_FREE): 6, int(mujoco.mjtJoint.mjJNT_BALL): 3}
-
-
-def _joint(model, name, sizes, adr):
-    j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
-    assert j != -1, name
-    start = int(adr[j])
-    return start, start + sizes.get(int(model.jnt_type[j]), 1)
-
-
-def get_joint_qpos(model, data, name):
-    a, b = _joint(model, name, _NQ, model.jnt_qposadr)
-    return data.qpos[a:b].copy()
-
-
-def get_joint_qvel(model, data, name):
-    a, b = _joint(model, name, _NV, model.jnt_dofadr)
-    return data.qvel[a:b].copy()
-
-
-def set_joint_qpos(model, data, name, value):
-    a, b = _joint(model, name, _NQ, model.jnt_qposadr)
-    data.qpos[a:b] = value
-
-
-def set_joint_qvel(model, data, name, value):
-    a, b = _joint(model, name, _NV, model.jnt_dofadr)
-    data.qvel[a:b] = value
-
-
-for _f in (get_joint_qpos, get_joint_qvel, set_joint_qpos, set_joint_qvel):
-    setattr(mujoco_utils, _f.__name__, _f)
+from gym_patch import get_joint_qpos, set_joint_qpos
 
 ENV_IDS = {
     "block": "HandManipulateBlockRotateZ_ContinuousTouchSensors-v1",

@@ -700,8 +700,10 @@ impl RapierHand {
             let w_other = c_other.parent().and_then(|b| bodies.get(b)).map_or(Vector::ZERO, |b| b.angvel());
             for m in &rigid.manifolds {
                 let normal_impulse: Real = m.points.iter().map(|p| p.data.impulse.max(0.0)).sum();
-                if normal_impulse > 0.0 {
-                    manifolds.push(((c1.position().rotation * m.local_n1).normalize(), mu * normal_impulse, w_other));
+                // A manifold may carry no normal (zero vector): it has no torsion axis.
+                let n = (c1.position().rotation * m.local_n1).normalize_or_zero();
+                if normal_impulse > 0.0 && n != Vector::ZERO {
+                    manifolds.push((n, mu * normal_impulse, w_other));
                 }
             }
         }
