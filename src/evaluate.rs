@@ -293,7 +293,7 @@ pub fn evaluate_run_on<E: Env + ContactReadout + Send>(
     }
     let report = EvalReport {
         name: config.name.clone(),
-        method: config.method.label().into(),
+        method: config.label(),
         task: format!("{:?}", config.env.object).to_lowercase(),
         engine: engine.key().into(),
         trained_on: Some(config.engine.key().into()),

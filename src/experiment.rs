@@ -442,6 +442,20 @@ impl ExperimentConfig {
         Ok(())
     }
 
+    /// The configuration's name in tables and figures: the method's label (e.g.
+    /// `Dense+FMSR+IS`), followed by the number of agents when the hand is not
+    /// split into the paper's six (e.g. `Sparse, 1 agent`).
+    #[must_use]
+    pub fn label(&self) -> String {
+        match &self.env.agents {
+            Some(agents) if agents.len() != fmsr_envs::shadow_hand::HandAgent::paper().len() => {
+                let n = agents.len();
+                format!("{}, {n} agent{}", self.method.label(), if n == 1 { "" } else { "s" })
+            }
+            _ => self.method.label().into(),
+        }
+    }
+
     /// The environment config with the method's task reward.
     #[must_use]
     pub fn env_config(&self) -> ShadowHandConfig {
@@ -529,5 +543,22 @@ impl ExperimentConfig {
             trainer_config.envs = Some(envs.len());
         }
         Ok(Trainer::with_envs(trainer_config, envs, learner, layout)?.with_communicator(comm)?)
+    }
+}
+
+#[cfg(test)]
+mod label_tests {
+    use std::path::Path;
+
+    use super::ExperimentConfig;
+
+    // Guards the report's grouping: a single agent owning the whole hand is a
+    // configuration of its own, never pooled with the paper's six-agent Sparse.
+    #[test]
+    fn a_single_agent_config_is_labelled_apart_from_the_paper_method() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/lite");
+        let single = ExperimentConfig::load(&root.join("block_single_agent_sparse.toml")).unwrap();
+        let six = ExperimentConfig::load(&root.join("block_sparse.toml")).unwrap();
+        assert_eq!((single.label(), six.label()), ("Sparse, 1 agent".to_string(), "Sparse".to_string()));
     }
 }

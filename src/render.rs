@@ -90,7 +90,7 @@ pub fn record_episode<P: HandPhysics + Send>(
     let last = angle_errors.last().copied().unwrap_or(f32::INFINITY);
     let outcome = classify(last, config.eval.threshold, played.infos.iter().any(|i| i.dropped));
     Ok(EpisodeFilm {
-        method: config.method.label().into(),
+        method: config.label(),
         engine,
         episode,
         seed,

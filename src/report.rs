@@ -49,13 +49,20 @@ impl RunRecord {
         let config = run.load_config()?;
         let metrics = run.load_metrics()?;
         let eval = read_eval(&run.eval_json())?;
-        let cross_evals = [Engine::Rapier, Engine::Mujoco]
+        let cross_evals: Vec<EvalReport> = [Engine::Rapier, Engine::Mujoco]
             .into_iter()
             .filter(|&e| e != config.engine)
             .map(|e| read_eval(&run.eval_json_on(e, config.engine)))
             .filter_map(Result::transpose)
             .collect::<Result<_, _>>()?;
         let target = crate::render::RenderTarget::default_for(&run, 0, config.engine);
+        let label = config.label();
+        let (mut eval, mut cross_evals) = (eval, cross_evals);
+        // The configuration names the run in every table (files of older versions
+        // carry only the method's label).
+        for e in eval.iter_mut().chain(cross_evals.iter_mut()) {
+            e.method.clone_from(&label);
+        }
         let rendering = match (&target, target.strip_path()) {
             (crate::render::RenderTarget::Gif(gif), Some(strip)) if gif.exists() && strip.exists() => {
                 Some((gif.clone(), strip))
@@ -63,6 +70,11 @@ impl RunRecord {
             _ => None,
         };
         Ok(Self { dir: dir.to_path_buf(), config, metrics, eval, cross_evals, rendering })
+    }
+
+    /// The configuration's method and label ([`ExperimentConfig::label`]).
+    fn configuration(&self) -> (Method, String) {
+        (self.config.method, self.config.label())
     }
 
     fn task(&self) -> String {
@@ -178,6 +190,19 @@ fn plot_err<E: std::fmt::Display>(path: &Path) -> impl Fn(E) -> ExperimentError 
     move |e| ExperimentError::Config { key: "report".into(), reason: format!("plotting {}: {e}", path.display()) }
 }
 
+/// The distinct configurations among `runs`, in the paper's method order.
+fn configurations(runs: &[&RunRecord]) -> Vec<(Method, String)> {
+    let mut out: Vec<(Method, String)> = runs.iter().map(|r| r.configuration()).collect();
+    out.sort_by_key(|(m, label)| (Method::ALL.iter().position(|x| x == m), label.clone()));
+    out.dedup();
+    out
+}
+
+/// The colour of a configuration: the method's, or grey for another split of the hand.
+fn configuration_color(method: Method, label: &str) -> RGBColor {
+    if label == method.label() { method_color(method) } else { RGBColor(90, 90, 90) }
+}
+
 /// Learning curves of one task: success rate per epoch per method, mean over
 /// seeds with the min-max band.
 fn plot_learning_curves(task: &str, runs: &[&RunRecord], path: &Path) -> Result<(), ExperimentError> {
@@ -193,11 +218,8 @@ fn plot_learning_curves(task: &str, runs: &[&RunRecord], path: &Path) -> Result<
         .build_cartesian_2d(0f64..(epochs - 1) as f64, 0f64..1.0)
         .map_err(&err)?;
     chart.configure_mesh().x_desc("epoch").y_desc("success rate").draw().map_err(&err)?;
-    for method in Method::ALL {
-        let seeds: Vec<&&RunRecord> = runs.iter().filter(|r| r.config.method == method).collect();
-        if seeds.is_empty() {
-            continue;
-        }
+    for (method, label) in configurations(runs) {
+        let seeds: Vec<&&RunRecord> = runs.iter().filter(|r| r.configuration() == (method, label.clone())).collect();
         // Mean and spread over the runs that reached each epoch.
         let n = seeds.iter().map(|r| r.metrics.len()).max().unwrap_or(0);
         let at = |e: usize| seeds.iter().filter_map(|r| r.metrics.get(e).map(|m| m.success_rate)).collect::<Vec<_>>();
@@ -207,7 +229,7 @@ fn plot_learning_curves(task: &str, runs: &[&RunRecord], path: &Path) -> Result<
                 (e as f64, v.iter().sum::<f64>() / v.len() as f64)
             })
             .collect();
-        let color = method_color(method);
+        let color = configuration_color(method, &label);
         if seeds.len() > 1 {
             let upper = (0..n).map(|e| (e as f64, at(e).into_iter().fold(f64::MIN, f64::max)));
             let lower = (0..n).rev().map(|e| (e as f64, at(e).into_iter().fold(f64::MAX, f64::min)));
@@ -218,7 +240,7 @@ fn plot_learning_curves(task: &str, runs: &[&RunRecord], path: &Path) -> Result<
         chart
             .draw_series(LineSeries::new(mean, color.stroke_width(2)))
             .map_err(&err)?
-            .label(format!("{} ({} run{})", method.label(), seeds.len(), if seeds.len() == 1 { "" } else { "s" }))
+            .label(format!("{label} ({} run{})", seeds.len(), if seeds.len() == 1 { "" } else { "s" }))
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
     }
     chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(&err)?;
@@ -246,7 +268,8 @@ fn plot_time_domain(task: &str, best: &[(&RunRecord, &EvalReport)], path: &Path)
         ("Q_DCC (mm)", |e| e.trace.q_dcc.iter().map(|d| d.map_or(f64::NAN, |d| d * 1e3)).collect()),
     ];
     for (area, (name, series)) in body.split_evenly((3, 2)).iter().zip(panels) {
-        let data: Vec<(Method, Vec<f64>)> = best.iter().map(|(r, e)| (r.config.method, series(e))).collect();
+        let data: Vec<((Method, String), Vec<f64>)> =
+            best.iter().map(|(r, e)| (r.configuration(), series(e))).collect();
         let steps = data.iter().map(|(_, v)| v.len()).max().unwrap_or(1).max(2);
         let ymax = data.iter().flat_map(|(_, v)| v.iter().copied()).filter(|v| v.is_finite()).fold(0.0, f64::max);
         let ymax = if ymax > 0.0 { ymax * 1.05 } else { 1.0 };
@@ -258,13 +281,13 @@ fn plot_time_domain(task: &str, best: &[(&RunRecord, &EvalReport)], path: &Path)
             .build_cartesian_2d(0f64..(steps - 1) as f64, 0f64..ymax)
             .map_err(&err)?;
         chart.configure_mesh().x_desc("step").draw().map_err(&err)?;
-        for (method, values) in data {
-            let color = method_color(method);
+        for ((method, label), values) in data {
+            let color = configuration_color(method, &label);
             let points = values.iter().enumerate().filter(|(_, v)| v.is_finite()).map(|(i, &v)| (i as f64, v));
             chart
                 .draw_series(LineSeries::new(points, color.stroke_width(2)))
                 .map_err(&err)?
-                .label(method.label())
+                .label(label)
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
         }
         chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(&err)?;
@@ -293,10 +316,10 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
     let mut missing_eval = Vec::new();
     for (task, task_runs) in &by_task {
         let mut best: Vec<(&RunRecord, &EvalReport)> = Vec::new();
-        for method in Method::ALL {
+        for configuration in configurations(task_runs) {
             let chosen = task_runs
                 .iter()
-                .filter(|r| r.config.method == method)
+                .filter(|r| r.configuration() == configuration)
                 .filter_map(|r| r.eval.as_ref().map(|e| (*r, e)))
                 .max_by(|a, b| a.1.success_rate.total_cmp(&b.1.success_rate));
             if let Some((r, e)) = chosen {
@@ -323,7 +346,7 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
                 runs_md,
                 "| {} | {task} | {} | {} | {} | {last} | {test} |",
                 r.dir.display(),
-                r.config.method.label(),
+                r.config.label(),
                 r.config.trainer.seed,
                 r.metrics.len()
             );
