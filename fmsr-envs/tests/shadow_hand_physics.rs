@@ -20,9 +20,14 @@ use rand_chacha::ChaCha8Rng;
 
 /// The physics alone, at the env's default settings.
 fn hand() -> RapierHand {
+    hand_with(ShadowHandConfig::default().rapier)
+}
+
+/// The physics alone, with `settings`.
+fn hand_with(settings: RapierSettings) -> RapierHand {
     let assets = fetch_hand_assets(None).unwrap();
     let model = load_rapier_model(&assets, HandObject::Block).unwrap();
-    RapierHand::new(model, ShadowHandConfig::default().rapier).unwrap()
+    RapierHand::new(model, settings).unwrap()
 }
 
 /// Resets, holds `ctrl = mid + a * half_range` for `secs` and returns the object heights per env step.
@@ -83,9 +88,7 @@ fn joints_track_position_targets() {
 // rule counts, so the backs are checked with sensors that read only the object.
 #[test]
 fn touch_sensors_under_resting_block_fire_and_backs_do_not() {
-    let assets = fetch_hand_assets(None).unwrap();
-    let model = load_rapier_model(&assets, HandObject::Block).unwrap();
-    let mut h = RapierHand::new(model, RapierSettings::object_touch_without_torsion()).unwrap();
+    let mut h = hand_with(RapierSettings::object_touch_without_torsion());
     hold(&mut h, 0.0, 1.0);
     let names = h.touch_names().to_vec();
     let active: Vec<&String> = names.iter().zip(h.touch()).filter(|(_, t)| **t > 0.0).map(|(n, _)| n).collect();
@@ -164,12 +167,9 @@ fn contact_readout_matches_touch_and_object() {
 // touch sensors, and they do not when sensors read only the object's contacts.
 #[test]
 fn touch_sensors_read_finger_on_finger_contacts_as_mujoco_does() {
-    let assets = fetch_hand_assets(None).unwrap();
-    let model = load_rapier_model(&assets, HandObject::Block).unwrap();
     let mut active = Vec::new();
     for every in [true, false] {
-        let settings = RapierSettings { touch_every_contact: every, ..RapierSettings::default() };
-        let mut h = RapierHand::new(model.clone(), settings).unwrap();
+        let mut h = hand_with(RapierSettings { touch_every_contact: every, ..RapierSettings::default() });
         h.set_object_pose([3.0, 3.0, 0.1], [1.0, 0.0, 0.0, 0.0]);
         let fist: Vec<f64> = h.ctrl_range().iter().map(|r| r[1]).collect();
         h.set_ctrl(&fist);
@@ -188,12 +188,9 @@ fn touch_sensors_read_finger_on_finger_contacts_as_mujoco_does() {
 // condim-4 contacts (a block spun on the palm turns less with it than without).
 #[test]
 fn torsional_friction_slows_a_block_spun_on_the_palm() {
-    let assets = fetch_hand_assets(None).unwrap();
-    let model = load_rapier_model(&assets, HandObject::Block).unwrap();
     let mut turned = Vec::new();
     for torsion in [true, false] {
-        let settings = RapierSettings { torsional_friction: torsion, ..RapierSettings::default() };
-        let mut h = RapierHand::new(model.clone(), settings).unwrap();
+        let mut h = hand_with(RapierSettings { torsional_friction: torsion, ..RapierSettings::default() });
         let mid: Vec<f64> = h.ctrl_range().iter().map(|r| (r[0] + r[1]) / 2.0).collect();
         h.set_ctrl(&mid);
         h.step(200);

@@ -70,6 +70,35 @@ pub const AGENTS: [AgentPart; 6] = [
 /// Number of touch sensors of the model.
 pub const NUM_TOUCH: usize = 92;
 
+/// One of the model's 92 touch sensors: the sensor's name, the `mjcf_rs` body
+/// id of its site, and the site (the sensor's zone).
+#[derive(Debug, Clone)]
+pub(crate) struct TouchSensorSite {
+    pub(crate) name: String,
+    pub(crate) body: usize,
+    pub(crate) site: rapier3d_mjcf::mjcf_rs::body::Site,
+}
+
+/// The 92 `robot0:TS_*` touch sensors in the model's order (shared.xml's 5
+/// fingertip `ST_Tch_*` are not among them), with their sites.
+pub(crate) fn touch_sensor_sites(model: &rapier3d_mjcf::mjcf_rs::Model) -> Result<Vec<TouchSensorSite>, EnvError> {
+    let prefix = format!("{PREFIX}TS_");
+    let mut out = Vec::with_capacity(NUM_TOUCH);
+    for sensor in model.sensors.iter().filter(|s| s.kind == "touch") {
+        let Some(name) = sensor.name.clone().filter(|n| n.starts_with(&prefix)) else { continue };
+        let site_name = sensor.objname.as_deref().unwrap_or_default();
+        let found = model.bodies.iter().enumerate().find_map(|(body, e)| {
+            e.body.sites.iter().find(|s| s.name.as_deref() == Some(site_name)).map(|s| (body, s.clone()))
+        });
+        let (body, site) = found.ok_or_else(|| EnvError::Model(format!("no site named {site_name} for {name}")))?;
+        out.push(TouchSensorSite { name, body, site });
+    }
+    if out.len() != NUM_TOUCH {
+        return Err(EnvError::Model(format!("{} touch sensors, expected {NUM_TOUCH}", out.len())));
+    }
+    Ok(out)
+}
+
 /// Reads `path` and replaces every `<include file="..."/>` (anywhere: top level,
 /// inside `<worldbody>` or `<asset>`) by the contents of the included file's
 /// `<mujoco>` element, recursively. `rapier3d-mjcf` 0.36 only resolves

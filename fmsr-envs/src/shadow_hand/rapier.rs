@@ -50,7 +50,9 @@ use serde::{Deserialize, Serialize};
 use fmsr_core::env::{ContactPoint, ObjectContacts};
 
 use super::assets::HandAssets;
-use super::model::{ACTUATORS, HAND_JOINTS, HandObject, NUM_TOUCH, PREFIX, inline_includes};
+use super::model::{
+    ACTUATORS, HAND_JOINTS, HandObject, NUM_TOUCH, PREFIX, TouchSensorSite, inline_includes, touch_sensor_sites,
+};
 use super::physics::HandPhysics;
 use crate::error::EnvError;
 
@@ -245,17 +247,10 @@ impl RapierHandModel {
             }
         }
 
-        // Sites and geoms by name, from the parsed model.
-        let mut sites = HashMap::new();
+        // Geoms by name, from the parsed model.
         let mut geom_classes = HashMap::new();
         let mut geom_torsion = HashMap::new();
         for entry in &model.bodies {
-            let body_name = entry.body.name.clone().unwrap_or_default();
-            for s in &entry.body.sites {
-                if let Some(n) = &s.name {
-                    sites.insert(n.clone(), (body_name.clone(), s.clone()));
-                }
-            }
             for g in &entry.body.geoms {
                 if let Some(n) = &g.name {
                     geom_classes.insert(n.clone(), (g.contype, g.conaffinity));
@@ -264,14 +259,12 @@ impl RapierHandModel {
             }
         }
 
-        // Touch sensors: the 92 `robot0:TS_*` (shared.xml's 5 fingertip `ST_Tch_*` are not among them).
+        // Touch sensors: their site boxes on the rapier bodies.
         let mut touch_names = Vec::new();
         let mut touch_sites = Vec::new();
-        for s in model.sensors.iter().filter(|s| s.kind == "touch") {
-            let Some(name) = s.name.clone().filter(|n| n.starts_with(&format!("{PREFIX}TS_"))) else { continue };
-            let site_name = s.objname.clone().ok_or_else(|| missing("site of touch sensor", &name))?;
-            let (body_name, site) = sites.get(&site_name).ok_or_else(|| missing("site", &site_name))?;
-            let body = *robot.body_name_to_idx.get(body_name).ok_or_else(|| missing("body", body_name))?;
+        for TouchSensorSite { name, body, site } in touch_sensor_sites(&model)? {
+            let body_name = model.bodies[body].body.name.clone().unwrap_or_default();
+            let body = *robot.body_name_to_idx.get(&body_name).ok_or_else(|| missing("body", &body_name))?;
             let t = site.pose.translation;
             let q = site.pose.rotation;
             touch_sites.push(TouchSite {
@@ -283,9 +276,6 @@ impl RapierHandModel {
                 half: Vector::new(site.size[0] as Real, site.size[1] as Real, site.size[2] as Real),
             });
             touch_names.push(name);
-        }
-        if touch_names.len() != NUM_TOUCH {
-            return Err(EnvError::Model(format!("{} touch sensors, expected {NUM_TOUCH}", touch_names.len())));
         }
 
         // Contact classes (see the module docs).
@@ -603,25 +593,10 @@ impl RapierHand {
     fn for_each_object_contact(&self, mut f: impl FnMut(Vector, Vector, Real, Option<RigidBodyHandle>)) {
         let colliders = &self.world.colliders;
         for pair in self.world.narrow_phase.contact_pairs_with(self.object_collider) {
-            let PairContacts::Rigid(rigid) = &pair.contacts else { continue };
-            let (Some(c1), Some(c2)) = (colliders.get(pair.collider1), colliders.get(pair.collider2)) else {
-                continue;
-            };
             let object_is_1 = pair.collider1 == self.object_collider;
-            let other = if object_is_1 { c2.parent() } else { c1.parent() };
-            for m in &rigid.manifolds {
-                // `local_n1`: the contact normal, outward from collider 1, in its frame.
-                let n1 = c1.position().rotation * m.local_n1;
-                let normal = if object_is_1 { -n1 } else { n1 };
-                for pt in &m.points {
-                    if pt.data.impulse <= 0.0 {
-                        continue;
-                    }
-                    let p1 = c1.position().transform_point(pt.local_p1);
-                    let p2 = c2.position().transform_point(pt.local_p2);
-                    f((p1 + p2) * 0.5, normal, pt.data.impulse, other);
-                }
-            }
+            let other =
+                colliders.get(if object_is_1 { pair.collider2 } else { pair.collider1 }).and_then(|c| c.parent());
+            for_each_point(colliders, pair, |n1, p, impulse| f(p, if object_is_1 { -n1 } else { n1 }, impulse, other));
         }
     }
 
@@ -630,17 +605,9 @@ impl RapierHand {
     fn for_each_contact(&self, mut f: impl FnMut(Vector, Real, Option<RigidBodyHandle>, Option<RigidBodyHandle>)) {
         let colliders = &self.world.colliders;
         for pair in self.world.narrow_phase.contact_pairs() {
-            let (Some(c1), Some(c2)) = (colliders.get(pair.collider1), colliders.get(pair.collider2)) else {
-                continue;
-            };
-            let PairContacts::Rigid(rigid) = &pair.contacts else { continue };
-            for m in &rigid.manifolds {
-                for pt in m.points.iter().filter(|pt| pt.data.impulse > 0.0) {
-                    let p1 = c1.position().transform_point(pt.local_p1);
-                    let p2 = c2.position().transform_point(pt.local_p2);
-                    f((p1 + p2) * 0.5, pt.data.impulse, c1.parent(), c2.parent());
-                }
-            }
+            let parent = |h| colliders.get(h).and_then(|c: &Collider| c.parent());
+            let (b1, b2) = (parent(pair.collider1), parent(pair.collider2));
+            for_each_point(colliders, pair, |_, p, impulse| f(p, impulse, b1, b2));
         }
     }
 
@@ -700,9 +667,9 @@ impl RapierHand {
             let w_other = c_other.parent().and_then(|b| bodies.get(b)).map_or(Vector::ZERO, |b| b.angvel());
             for m in &rigid.manifolds {
                 let normal_impulse: Real = m.points.iter().map(|p| p.data.impulse.max(0.0)).sum();
-                // A manifold may carry no normal (zero vector): it has no torsion axis.
-                let n = (c1.position().rotation * m.local_n1).normalize_or_zero();
-                if normal_impulse > 0.0 && n != Vector::ZERO {
+                if let Some(n) = torsion_axis(c1.position().rotation * m.local_n1)
+                    && normal_impulse > 0.0
+                {
                     manifolds.push((n, mu * normal_impulse, w_other));
                 }
             }
@@ -724,6 +691,30 @@ impl RapierHand {
         let qd = if v.is_empty() { 0.0 } else { v[0] };
         (f64::from(q), f64::from(qd))
     }
+}
+
+/// Calls `f(normal, point, normal impulse)` for every point of `pair` with a
+/// positive normal impulse: the manifold's normal outward from collider 1 and the
+/// midpoint of the two surfaces' points, in the world frame.
+fn for_each_point(colliders: &ColliderSet, pair: &ContactPair, mut f: impl FnMut(Vector, Vector, Real)) {
+    let PairContacts::Rigid(rigid) = &pair.contacts else { return };
+    let (Some(c1), Some(c2)) = (colliders.get(pair.collider1), colliders.get(pair.collider2)) else { return };
+    for m in &rigid.manifolds {
+        // `local_n1`: the contact normal, outward from collider 1, in its frame.
+        let n1 = c1.position().rotation * m.local_n1;
+        for pt in m.points.iter().filter(|pt| pt.data.impulse > 0.0) {
+            let p1 = c1.position().transform_point(pt.local_p1);
+            let p2 = c2.position().transform_point(pt.local_p2);
+            f(n1, (p1 + p2) * 0.5, pt.data.impulse);
+        }
+    }
+}
+
+/// The unit axis of torsional friction for a manifold normal, `None` when the
+/// manifold carries no normal (a zero vector, which rapier can report).
+fn torsion_axis(normal: Vector) -> Option<Vector> {
+    let n = normal.normalize_or_zero();
+    (n != Vector::ZERO).then_some(n)
 }
 
 /// The torsional friction impulse (about the contact normal, against the spin)
@@ -909,6 +900,15 @@ mod tests {
     use proptest::prelude::*;
 
     use super::*;
+
+    // Regression (e08af39): a manifold without a normal made the torsion axis
+    // NaN (normalising a zero vector), and the object's velocity with it.
+    #[test]
+    fn a_manifold_without_a_normal_has_no_torsion_axis() {
+        assert_eq!(torsion_axis(Vector::ZERO), None);
+        let n = torsion_axis(Vector::new(0.0, 3.0, 4.0)).unwrap();
+        assert!((n.length() - 1.0).abs() < 1e-6 && n.is_finite());
+    }
 
     proptest! {
         // Guards the torsional friction impulse: bounded by the friction limit,

@@ -32,7 +32,7 @@ pub use self::kinematics::{BodyTree, Iso};
 pub use self::raster::{Camera, Canvas, Image, Projector};
 use self::raster::{cross, dot};
 use super::assets::HandAssets;
-use super::model::{HAND_JOINTS, HandObject, NUM_TOUCH, PREFIX, inline_includes};
+use super::model::{HAND_JOINTS, HandObject, NUM_TOUCH, PREFIX, TouchSensorSite, inline_includes, touch_sensor_sites};
 use crate::error::EnvError;
 
 /// What a frame shows: the state of the scene after one env step.
@@ -297,26 +297,15 @@ fn mesh_part(model: &Model, base: &Path, geom: &Geom) -> Result<Part, EnvError> 
 }
 
 /// The boxes of the 92 `robot0:TS_*` touch sensors, in the model's order (that
-/// of [`HandPhysics::touch_names`](super::HandPhysics::touch_names)).
+/// of [`HandPhysics::touch_names`](super::HandPhysics::touch_names)); a sphere
+/// site is drawn as the box around it.
 fn touch_boxes(model: &Model) -> Result<Vec<TouchBox>, EnvError> {
-    let prefix = format!("{PREFIX}TS_");
-    let mut boxes = Vec::with_capacity(NUM_TOUCH);
-    for sensor in model.sensors.iter().filter(|s| s.kind == "touch") {
-        if !sensor.name.as_deref().is_some_and(|n| n.starts_with(&prefix)) {
-            continue;
-        }
-        let site_name = sensor.objname.as_deref().unwrap_or_default();
-        let found = model.bodies.iter().enumerate().find_map(|(body, e)| {
-            e.body.sites.iter().find(|s| s.name.as_deref() == Some(site_name)).map(|s| (body, s))
-        });
-        let (body, site) = found.ok_or_else(|| EnvError::Model(format!("no site named {site_name}")))?;
-        let r = site.size[0];
-        let half =
-            [r, if site.size[1] > 0.0 { site.size[1] } else { r }, if site.size[2] > 0.0 { site.size[2] } else { r }];
-        boxes.push(TouchBox { body, local: kinematics::iso_of(&site.pose), half });
-    }
-    if boxes.len() != NUM_TOUCH {
-        return Err(EnvError::Model(format!("{} touch sensors, expected {NUM_TOUCH}", boxes.len())));
-    }
-    Ok(boxes)
+    Ok(touch_sensor_sites(model)?
+        .into_iter()
+        .map(|TouchSensorSite { body, site, .. }| {
+            let r = site.size[0];
+            let or_r = |v: f64| if v > 0.0 { v } else { r };
+            TouchBox { body, local: kinematics::iso_of(&site.pose), half: [r, or_r(site.size[1]), or_r(site.size[2])] }
+        })
+        .collect())
 }
