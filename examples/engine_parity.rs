@@ -1,6 +1,6 @@
 //! Where FMSR looks, do the engines agree? The same action sequences on MuJoCo
-//! 3.17 and on rapier3d (with and without each fidelity setting of
-//! `RapierSettings`), and what each engine makes of them: active touch sensors,
+//! 3.17 and on rapier3d (without the fidelity settings of `RapierSettings`,
+//! with each alone, and with all), and what each engine makes of them: active touch sensors,
 //! the occupancy of the `contacts` feature (>= 10 active), the grasp measures
 //! Q_MSV, Q_VEW and Q_DCC, how far the object turned, and drops (issue 11, item 2).
 //!
@@ -127,11 +127,13 @@ fn main() -> Result<()> {
     if let Some(run) = value("--run") {
         sources.push(("policy", policy_actions(&run, &seeds)?));
     }
-    let variants: [(&str, RapierSettings); 4] = [
-        ("rapier, object contacts only, no torsion", RapierSettings::object_touch_without_torsion()),
-        ("rapier, + every contact on touch", RapierSettings { torsional_friction: false, ..RapierSettings::default() }),
-        ("rapier, + torsional friction", RapierSettings { touch_every_contact: false, ..RapierSettings::default() }),
-        ("rapier, both (default)", RapierSettings::default()),
+    let before = RapierSettings::without_fidelity();
+    let variants: [(&str, RapierSettings); 5] = [
+        ("rapier, object contacts only, no torsion, no slack", before),
+        ("rapier, + every contact on touch", RapierSettings { touch_every_contact: true, ..before }),
+        ("rapier, + torsional friction", RapierSettings { torsional_friction: true, ..before }),
+        ("rapier, + tendon slack", RapierSettings { tendon_slack: true, ..before }),
+        ("rapier, all three (default)", RapierSettings::default()),
     ];
     println!("{} episodes of {len} steps per source, seeds {}..{}\n", seeds.len(), seeds[0], seeds[seeds.len() - 1]);
     println!(

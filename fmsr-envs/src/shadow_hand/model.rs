@@ -1,6 +1,7 @@
 //! Facts of the Shadow Hand model shared by every physics backend, and the
 //! MJCF preprocessing (include inlining) our rapier loader needs.
 
+use std::collections::HashMap;
 use std::fs;
 use std::path::Path;
 
@@ -137,6 +138,43 @@ fn inline_rec(path: &Path, depth: usize) -> Result<String, EnvError> {
     }
     out.push_str(rest);
     Ok(out)
+}
+
+/// The length range of every limited `<tendon><fixed>` of an MJCF text, by
+/// tendon name: `lo <= sum_i coef_i q_i <= hi`. A tendon is limited when
+/// `limited="true"`, or when it has a `range` and `limited` is absent or
+/// `"auto"` (MuJoCo's `autolimits`). `rapier3d-mjcf` 0.36 keeps the tendons'
+/// joints and coefficients but not their ranges, which the rapier backend needs
+/// for the slack of the J1/J0 coupling.
+///
+/// ```
+/// use fmsr_envs::shadow_hand::model::fixed_tendon_ranges;
+/// let xml = r#"<mujoco><tendon>
+///   <fixed name="c" limited="true" range="-0.001 0.001"><joint joint="a" coef="1"/></fixed>
+///   <fixed name="free" limited="false" range="-1 1"><joint joint="a" coef="1"/></fixed>
+/// </tendon></mujoco>"#;
+/// let ranges = fixed_tendon_ranges(xml).unwrap();
+/// assert_eq!(ranges["c"], [-0.001, 0.001]);
+/// assert!(!ranges.contains_key("free"));
+/// ```
+pub fn fixed_tendon_ranges(xml: &str) -> Result<HashMap<String, [f64; 2]>, EnvError> {
+    let doc = roxmltree::Document::parse(xml).map_err(|e| EnvError::Model(format!("MJCF is not XML: {e}")))?;
+    let mut ranges = HashMap::new();
+    for t in
+        doc.descendants().filter(|n| n.has_tag_name("fixed") && n.parent().is_some_and(|p| p.has_tag_name("tendon")))
+    {
+        let (Some(name), Some(range)) = (t.attribute("name"), t.attribute("range")) else { continue };
+        if !matches!(t.attribute("limited"), None | Some("true" | "auto")) {
+            continue;
+        }
+        let bad = || EnvError::Model(format!("tendon {name}: range {range:?} is not two numbers lo <= hi"));
+        let v = range.split_whitespace().map(str::parse::<f64>).collect::<Result<Vec<_>, _>>().map_err(|_| bad())?;
+        match v[..] {
+            [lo, hi] if lo <= hi => ranges.insert(name.to_string(), [lo, hi]),
+            _ => return Err(bad()),
+        };
+    }
+    Ok(ranges)
 }
 
 /// The value of `name="..."` in one tag.

@@ -9,9 +9,12 @@
 //!   exactly by rapier's AND test, so no physics hook runs for them (contact recycling stays on);
 //! - the **J1/J0 coupling**: the loader couples the two joints of the `T_xxJ1c`
 //!   tendon as co-actuated (`q_k = (c_k / c_0) q_0`), which gives the distal joint
-//!   the wrong sign. That tendon is a length constraint (range +-0.001), so the
-//!   coupling is `c_0 q_0 + c_k q_k = 0`, i.e. `q_k = -(c_0 / c_k) q_0`; we rewrite
-//!   every coupling whose tendon has coefficients of opposite sign that way;
+//!   the wrong sign. That tendon is a length constraint, so the coupling is
+//!   `c_0 q_0 + c_k q_k = 0`, i.e. `q_k = -(c_0 / c_k) q_0`; we rewrite every
+//!   coupling whose tendon has coefficients of opposite sign that way. Its range
+//!   (`|c_0 q_0 + c_k q_k| <= 0.001`, i.e. +-0.14 rad of the distal joint) is the
+//!   tendon's **slack** ([`RapierSettings::tendon_slack`]): the coupling holds
+//!   only at the ends of the range;
 //! - the **target** body is a ghost: it gets no collider and is fixed;
 //! - the **object's** mass and inertia are set explicitly to MuJoCo's (box: from
 //!   its density 567; egg: the solid ellipsoid of density 1000, collided as the
@@ -33,15 +36,15 @@
 //!   angular impulse after each step, bounded by the friction coefficient times
 //!   the normal impulse.
 //!
-//! Not modelled: the pairs' `condim="1"` (they keep friction), the slack of the
-//! J1/J0 tendon (MuJoCo's `T_xxJ1c` allows `|c_0 q_0 + c_k q_k| <= 0.001`, i.e.
-//! +-0.14 rad on J0; ours is an equality), the other tendon limits, MuJoCo's
+//! Not modelled: the pairs' `condim="1"` (they keep friction), the other tendon
+//! limits (the J1+J0 sums of `T_xxJ1u/d`, which the joint ranges never reach), MuJoCo's
 //! soft-contact `solref`/`solimp` and geom `margin`.
 
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::Arc;
 
+use rapier3d::dynamics::{Multibody, MultibodyDofCoupling};
 use rapier3d::math::{Pose, Real, Rotation, Vector};
 use rapier3d::prelude::*;
 use rapier3d_mjcf::{MjcfLoaderOptions, MjcfMultibodyOptions, MjcfRobot, MjcfRobotHandles};
@@ -51,7 +54,8 @@ use fmsr_core::env::{ContactPoint, ObjectContacts};
 
 use super::assets::HandAssets;
 use super::model::{
-    ACTUATORS, HAND_JOINTS, HandObject, NUM_TOUCH, PREFIX, TouchSensorSite, inline_includes, touch_sensor_sites,
+    ACTUATORS, HAND_JOINTS, HandObject, NUM_TOUCH, PREFIX, TouchSensorSite, fixed_tendon_ranges, inline_includes,
+    touch_sensor_sites,
 };
 use super::physics::HandPhysics;
 use crate::error::EnvError;
@@ -113,6 +117,11 @@ pub struct RapierSettings {
     /// `mu_torsion` x the contact's normal impulse (MuJoCo's second friction
     /// coefficient, 0.005 m here), never more than stops that spin.
     pub torsional_friction: bool,
+    /// The J1/J0 tendon's slack: the coupled distal joint moves freely while the
+    /// tendon length `c_0 q_0 + c_k q_k` is inside its range (+-0.001 m, about
+    /// +-0.14 rad of J0), and the coupling engages at the ends of the range, as
+    /// MuJoCo's tendon limit does. Off: the coupling is an equality at length 0.
+    pub tendon_slack: bool,
 }
 
 impl Default for RapierSettings {
@@ -126,6 +135,7 @@ impl Default for RapierSettings {
             contact_recycling: true,
             touch_every_contact: true,
             torsional_friction: true,
+            tendon_slack: true,
         }
     }
 }
@@ -138,19 +148,20 @@ impl RapierSettings {
         Self { timestep: 0.002, solver_iterations: 2, pgs_iterations: 1, ..Self::default() }
     }
 
-    /// The default solver without the two fidelity settings: touch sensors read
-    /// only the object's contacts and contacts have no torsional friction (how
-    /// every run before issue 11's fidelity work was simulated), for comparisons.
+    /// The default solver without the fidelity settings: touch sensors read
+    /// only the object's contacts, contacts have no torsional friction and the
+    /// J1/J0 coupling has no slack (how every run before issue 11's fidelity work
+    /// was simulated), for comparisons.
     ///
     /// ```
     /// use fmsr_envs::shadow_hand::RapierSettings;
-    /// let before = RapierSettings::object_touch_without_torsion();
-    /// assert!(!before.touch_every_contact && !before.torsional_friction);
+    /// let before = RapierSettings::without_fidelity();
+    /// assert!(!before.touch_every_contact && !before.torsional_friction && !before.tendon_slack);
     /// assert_eq!(before.timestep, RapierSettings::default().timestep);
     /// ```
     #[must_use]
-    pub fn object_touch_without_torsion() -> Self {
-        Self { touch_every_contact: false, torsional_friction: false, ..Self::default() }
+    pub fn without_fidelity() -> Self {
+        Self { touch_every_contact: false, torsional_friction: false, tendon_slack: false, ..Self::default() }
     }
 }
 
@@ -162,6 +173,26 @@ struct TouchSite {
     /// The site's pose in the body frame.
     pose: Pose,
     half: Vector,
+}
+
+/// A J1/J0 coupling `q2 = coeff q1 + offset` whose tendon allows slack: the
+/// offset may lie anywhere in `band` (the tendon's length range over `c2`).
+#[derive(Debug, Clone, Copy)]
+struct TendonSlack {
+    /// `MjcfRobot::joints` index of the coupling's first joint.
+    joint1: usize,
+    /// `MjcfRobot::joints` index of its second joint.
+    joint2: usize,
+    band: [Real; 2],
+}
+
+/// A slack coupling in the world: the multibody coupling it installs when it
+/// engages, and its band.
+#[derive(Debug, Clone, Copy)]
+struct SlackCoupling {
+    joint1: MultibodyJointHandle,
+    coupling: MultibodyDofCoupling,
+    band: [Real; 2],
 }
 
 /// The model loaded from disk once; shared by every env built from it.
@@ -184,6 +215,8 @@ pub struct RapierHandModel {
     pairs: Vec<((usize, usize), (usize, usize))>,
     /// `(condim, torsional friction coefficient)` per (body index, collider index in body).
     torsion: HashMap<(usize, usize), (u32, f64)>,
+    /// The couplings whose tendon has a length range.
+    slack: Vec<TendonSlack>,
     gravity: Vector,
     /// The model's `<option timestep>` (0.002 s).
     model_timestep: f64,
@@ -228,7 +261,9 @@ impl RapierHandModel {
             ctrl_range.push([range[0], range[1]]);
         }
 
-        // J1/J0 coupling sign (see the module docs).
+        // J1/J0 coupling sign, and its slack (see the module docs).
+        let tendon_ranges = fixed_tendon_ranges(xml)?;
+        let mut slack = Vec::new();
         for c in &mut robot.joint_couplings {
             let (Some(n1), Some(n2)) = (robot.joints[c.joint1].name.as_deref(), robot.joints[c.joint2].name.as_deref())
             else {
@@ -243,6 +278,11 @@ impl RapierHandModel {
                 let (c1, c2) = (coef(n1), coef(n2));
                 if c1 * c2 < 0.0 {
                     c.coeff = (-(c1 / c2)) as Real;
+                    // Length `c1 q1 + c2 q2 = c2 (q2 - coeff q1) = c2 offset`.
+                    if let Some([lo, hi]) = t.name.as_ref().and_then(|n| tendon_ranges.get(n)) {
+                        let (a, b) = ((lo / c2) as Real, (hi / c2) as Real);
+                        slack.push(TendonSlack { joint1: c.joint1, joint2: c.joint2, band: [a.min(b), a.max(b)] });
+                    }
                 }
             }
         }
@@ -403,6 +443,7 @@ impl RapierHandModel {
             groups,
             pairs,
             torsion,
+            slack,
             gravity,
             model_timestep,
         })
@@ -446,6 +487,8 @@ pub struct RapierHand {
     hooks: PairHooks,
     /// `(condim, torsional friction coefficient)` of each collider of the model.
     torsion: HashMap<ColliderHandle, (u32, f64)>,
+    /// The slack couplings, taken out of the multibody ([`RapierSettings::tendon_slack`]).
+    slack: Vec<SlackCoupling>,
     ctrl: Vec<Real>,
     touch_sum: Vec<f64>,
     touch: Vec<f64>,
@@ -557,6 +600,8 @@ impl RapierHand {
             .collect();
         let n_act = model.ctrl_range.len();
         let torsion = model.torsion.iter().filter_map(|(&key, &t)| collider_of(key).map(|h| (h, t))).collect();
+        let slack =
+            if settings.tendon_slack { take_slack_couplings(&mut world, &handles, &model.slack) } else { Vec::new() };
         Self {
             settings,
             world,
@@ -569,6 +614,7 @@ impl RapierHand {
             joint_dofs,
             hooks,
             torsion,
+            slack,
             ctrl: vec![0.0; n_act],
             touch_sum: vec![0.0; NUM_TOUCH],
             touch: vec![0.0; NUM_TOUCH],
@@ -682,6 +728,22 @@ impl RapierHand {
         }
     }
 
+    /// [`RapierSettings::tendon_slack`]: before each rapier step, installs the
+    /// coupling of each slack tendon at the end of its band that the coupled
+    /// joints would cross within the step, and takes it out otherwise.
+    fn engage_tendon_limits(&mut self) {
+        let dt = self.world.integration_parameters.dt;
+        for s in &self.slack {
+            let Some((mb, _)) = self.world.multibody_joints.get_mut(s.joint1) else { continue };
+            let c = s.coupling;
+            mb.retain_dof_couplings(|k| (k.link1, k.dof1, k.link2, k.dof2) != (c.link1, c.dof1, c.link2, c.dof2));
+            let Some((offset, rate)) = coupling_offset(mb, &c) else { continue };
+            if let Some(end) = tendon_limit(offset + rate * dt, s.band) {
+                mb.add_dof_coupling(MultibodyDofCoupling { offset: end, ..c });
+            }
+        }
+    }
+
     fn joint_coord(&self, k: usize) -> (f64, f64) {
         let (h, axis) = self.joint_dofs[k];
         let Some((mb, link_id)) = self.world.multibody_joints.get(h) else { return (0.0, 0.0) };
@@ -707,6 +769,53 @@ fn for_each_point(colliders: &ColliderSet, pair: &ContactPair, mut f: impl FnMut
             let p2 = c2.position().transform_point(pt.local_p2);
             f(n1, (p1 + p2) * 0.5, pt.data.impulse);
         }
+    }
+}
+
+/// Takes the couplings of `slack` out of the world's multibodies (they are
+/// installed again, step by step, by [`RapierHand::engage_tendon_limits`]).
+fn take_slack_couplings(
+    world: &mut PhysicsWorld,
+    handles: &MjcfRobotHandles<Option<MultibodyJointHandle>>,
+    slack: &[TendonSlack],
+) -> Vec<SlackCoupling> {
+    let mut out = Vec::new();
+    for s in slack {
+        let (Some(h1), Some(h2)) = (handles.joints[s.joint1].joint, handles.joints[s.joint2].joint) else { continue };
+        let Some(link2) = world.multibody_joints.get(h2).map(|(_, l)| l) else { continue };
+        let Some((mb, link1)) = world.multibody_joints.get_mut(h1) else { continue };
+        let Some(i) = mb.couplings().iter().position(|c| c.link1 == link1 && c.link2 == link2) else { continue };
+        if let Some(coupling) = mb.remove_dof_coupling(i) {
+            out.push(SlackCoupling { joint1: h1, coupling, band: s.band });
+        }
+    }
+    out
+}
+
+/// `(q2 - coeff q1, its rate)` of a coupling's two joints.
+fn coupling_offset(mb: &Multibody, c: &MultibodyDofCoupling) -> Option<(Real, Real)> {
+    let (l1, l2) = (mb.link(c.link1)?, mb.link(c.link2)?);
+    let (v1, v2) = (mb.joint_velocity(l1), mb.joint_velocity(l2));
+    let q = l2.joint().coords()[c.axis2] - c.coeff * l1.joint().coords()[c.axis1];
+    let rate = v2.get(c.dof2).copied()? - c.coeff * v1.get(c.dof1).copied()?;
+    Some((q, rate))
+}
+
+/// How far past an end of its band a slack coupling's offset may be predicted
+/// before the coupling engages (rad). Without it, a coupling held exactly at
+/// its end would never be released.
+const SLACK_TOLERANCE: Real = 1e-3;
+
+/// The end of `band` at which a slack coupling engages, when its offset is
+/// predicted to lie beyond it (by more than [`SLACK_TOLERANCE`]) after the next
+/// step; `None` while the offset stays inside, where the joints move freely.
+fn tendon_limit(predicted: Real, band: [Real; 2]) -> Option<Real> {
+    if predicted > band[1] + SLACK_TOLERANCE {
+        Some(band[1])
+    } else if predicted < band[0] - SLACK_TOLERANCE {
+        Some(band[0])
+    } else {
+        None
     }
 }
 
@@ -819,6 +928,7 @@ impl HandPhysics for RapierHand {
         let duration = substeps as f64 * self.model.model_timestep;
         let steps = ((duration / self.settings.timestep).round() as usize).max(1);
         for _ in 0..steps {
+            self.engage_tendon_limits();
             self.world.step_with_events(&self.hooks, &());
             self.accumulate_touch();
             if self.settings.torsional_friction {
@@ -908,6 +1018,22 @@ mod tests {
         assert_eq!(torsion_axis(Vector::ZERO), None);
         let n = torsion_axis(Vector::new(0.0, 3.0, 4.0)).unwrap();
         assert!((n.length() - 1.0).abs() < 1e-6 && n.is_finite());
+    }
+
+    proptest! {
+        // Guards the tendon slack rule: a coupling engages only when its offset
+        // leaves the band, and then at the end it crossed.
+        #[test]
+        fn a_slack_coupling_engages_only_outside_its_band_at_the_end_it_crossed(
+            lo in -1.0f32..0.0, width in 0.0f32..1.0, predicted in -3.0f32..3.0,
+        ) {
+            let band = [lo, lo + width];
+            match tendon_limit(predicted, band) {
+                None => prop_assert!(predicted >= band[0] - SLACK_TOLERANCE && predicted <= band[1] + SLACK_TOLERANCE),
+                Some(end) if predicted > band[1] => prop_assert_eq!(end, band[1]),
+                Some(end) => { prop_assert!(predicted < band[0]); prop_assert_eq!(end, band[0]); }
+            }
+        }
     }
 
     proptest! {
