@@ -50,7 +50,7 @@ use fmsr_envs::shadow_hand::ShadowHandConfig;
 use fmsr_graph::Graph;
 use fmsr_nn::{
     AlgorithmKind, AnyLearner, Device, LearnerParts, Maddpg, MaddpgConfig, Masac, MasacConfig, Matd3, Matd3Config,
-    NetworkConfig,
+    NetworkConfig, Teammates,
 };
 
 /// The timestep of the Shadow Hand model (s); one env step is `substeps` of them.
@@ -444,15 +444,32 @@ impl ExperimentConfig {
 
     /// The configuration's name in tables and figures: the method's label (e.g.
     /// `Dense+FMSR+IS`), followed by the number of agents when the hand is not
-    /// split into the paper's six (e.g. `Sparse, 1 agent`).
+    /// split into the paper's six (e.g. `Sparse, 1 agent`), and by
+    /// `current teammates` when the actors' loss takes the teammates' current
+    /// policies ([`Teammates::Current`]), so that an ablation is never pooled
+    /// with the method's runs.
     #[must_use]
     pub fn label(&self) -> String {
-        match &self.env.agents {
+        let mut label = match &self.env.agents {
             Some(agents) if agents.len() != fmsr_envs::shadow_hand::HandAgent::paper().len() => {
                 let n = agents.len();
                 format!("{}, {n} agent{}", self.method.label(), if n == 1 { "" } else { "s" })
             }
             _ => self.method.label().into(),
+        };
+        if self.teammates() == Teammates::Current {
+            label.push_str(", current teammates");
+        }
+        label
+    }
+
+    /// Which teammates' actions the chosen algorithm's actor loss takes.
+    #[must_use]
+    pub fn teammates(&self) -> Teammates {
+        match self.algorithm {
+            AlgorithmKind::Maddpg => self.maddpg_config().teammates,
+            AlgorithmKind::Matd3 => self.matd3_config().teammates,
+            AlgorithmKind::Masac => self.masac_config().teammates,
         }
     }
 
@@ -560,5 +577,17 @@ mod label_tests {
         let single = ExperimentConfig::load(&root.join("block_single_agent_sparse.toml")).unwrap();
         let six = ExperimentConfig::load(&root.join("block_sparse.toml")).unwrap();
         assert_eq!((single.label(), six.label()), ("Sparse, 1 agent".to_string(), "Sparse".to_string()));
+    }
+
+    // Guards the report's grouping of the teammates ablation: its runs are
+    // labelled apart from the method's.
+    #[test]
+    fn the_current_teammates_ablation_is_labelled_apart() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/lite");
+        let ablation =
+            ExperimentConfig::load(&root.join("ablation/block_dense_fmsr_is_current_teammates.toml")).unwrap();
+        let method = ExperimentConfig::load(&root.join("block_dense_fmsr_is.toml")).unwrap();
+        assert_eq!(ablation.label(), "Dense+FMSR+IS, current teammates");
+        assert_eq!(method.label(), "Dense+FMSR+IS");
     }
 }
