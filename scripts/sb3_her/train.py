@@ -10,9 +10,13 @@ An epoch, as in HER baselines with one worker and in fmsr's lite configs: 50
 cycles of 2 episodes (100 steps each, 10k env steps), each cycle followed by 40
 gradient steps on batches of 256; then 10 deterministic test episodes, whose
 success (the env's own 0.1 rad) is `success_rate`. The network (3 x 256), the
-learning rates (1e-3), gamma 0.98, polyak 0.95 (tau 0.05), Gaussian action noise
-0.2, HER's `future` strategy with k = 4 (80 % relabelled), a 1M-transition buffer
-and observations normalised and clipped to +-5 are HER baselines' settings.
+learning rates (1e-3), gamma 0.98, Gaussian action noise 0.2, HER's `future`
+strategy with k = 4 (80 % relabelled), a 1M-transition buffer and observations
+normalised and clipped to +-5 are HER baselines' settings. HER baselines moves
+its target networks once per cycle (polyak 0.95 after the cycle's 40 batches);
+SB3's DDPG moves them after every gradient step, so its tau is the per-step
+rate of the same lag, 1 - 0.95^(1/40) = 0.00128 (with `--tau 0.05`, the
+target networks move 40x faster than HER baselines').
 Two of them SB3's DDPG has no switch for, so this peer runs without them:
 HER baselines' 30 % uniformly random actions, and the actor's action-L2 penalty.
 
@@ -55,11 +59,22 @@ def parse_args():
     p.add_argument("--batch-size", type=int, default=256)
     p.add_argument("--test-episodes", type=int, default=10)
     p.add_argument("--threads", type=int, default=1, help="torch threads (1, as fmsr's lite runs)")
+    p.add_argument("--polyak", type=float, default=0.95, help="HER baselines' target lag per cycle")
+    p.add_argument("--tau", type=float, default=None, help="SB3's per-step tau (default: the polyak's per-step rate)")
     args = p.parse_args()
+    if not 0.0 < args.polyak < 1.0:
+        p.error(f"--polyak must lie in (0, 1), got {args.polyak}")
+    if args.tau is not None and not 0.0 < args.tau <= 1.0:
+        p.error(f"--tau must lie in (0, 1], got {args.tau}")
     for name in ["epochs", "cycles", "episodes_per_cycle", "batches", "batch_size", "test_episodes", "threads"]:
         if getattr(args, name) < 1:
             p.error(f"--{name.replace('_', '-')} must be at least 1, got {getattr(args, name)}")
     return args
+
+
+def per_step_tau(args):
+    """SB3's tau: given, or the per-gradient-step rate of HER baselines' per-cycle polyak."""
+    return args.tau if args.tau is not None else 1.0 - args.polyak ** (1.0 / args.batches)
 
 
 def make_model(args, env):
@@ -71,7 +86,7 @@ def make_model(args, env):
         buffer_size=1_000_000,
         learning_starts=args.episodes_per_cycle * EPISODE_STEPS,
         batch_size=args.batch_size,
-        tau=0.05,
+        tau=per_step_tau(args),
         gamma=0.98,
         train_freq=(args.episodes_per_cycle, "episode"),
         gradient_steps=args.batches,
