@@ -197,6 +197,19 @@ fn mujoco_body(text: &str) -> Option<&str> {
 mod tests {
     use super::*;
 
+    // Guards the tendon ranges' input checks: a range that is not two ordered
+    // numbers is an error naming the tendon, never a silent default.
+    #[test]
+    fn a_malformed_tendon_range_is_an_error_naming_the_tendon() {
+        for range in ["0.001", "0.001 -0.001", "a b", "0 1 2"] {
+            let xml = format!(r#"<mujoco><tendon><fixed name="t" range="{range}"/></tendon></mujoco>"#);
+            let err = fixed_tendon_ranges(&xml).unwrap_err().to_string();
+            assert!(err.contains("tendon t"), "{range}: {err}");
+        }
+        let auto = fixed_tendon_ranges(r#"<mujoco><tendon><fixed name="t" range="-1 1"/></tendon></mujoco>"#).unwrap();
+        assert_eq!(auto["t"], [-1.0, 1.0]);
+    }
+
     #[test]
     fn includes_are_inlined_everywhere() {
         let dir = std::env::temp_dir().join(format!("fmsr-inline-{}", std::process::id()));
