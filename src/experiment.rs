@@ -385,7 +385,7 @@ impl ExperimentConfig {
         }
         let config = ExperimentConfig::deserialize(toml::Value::Table(value)).map_err(|e| parse_err(e.to_string()))?;
         config.validate()?;
-        Ok(config)
+        Ok(config.with_algorithm_section())
     }
 
     /// Reads and parses a TOML experiment file.
@@ -400,7 +400,7 @@ impl ExperimentConfig {
     /// [`ExperimentError::Config`] if a value cannot be written as TOML.
     pub fn to_toml(&self) -> Result<String, ExperimentError> {
         let err = |e: toml::ser::Error| ExperimentError::Config { key: "(all)".into(), reason: e.to_string() };
-        let mut table = toml::Table::try_from(self).map_err(err)?;
+        let mut table = toml::Table::try_from(self.clone().with_algorithm_section()).map_err(err)?;
         if let Some(toml::Value::Table(env)) = table.get_mut("env") {
             env.remove("reward");
         }
@@ -493,6 +493,20 @@ impl ExperimentConfig {
         SharingConfig { enabled: self.method.sharing(), ..self.sharing.clone().unwrap_or_default() }
     }
 
+    /// The config with the chosen algorithm's section written out (its
+    /// defaults where the file left it out), so that a run's `config.toml`
+    /// records every setting its algorithm learned with and a later change of
+    /// a default cannot change a run that is resumed or evaluated.
+    #[must_use]
+    pub fn with_algorithm_section(mut self) -> Self {
+        match self.algorithm {
+            AlgorithmKind::Maddpg => self.maddpg = Some(self.maddpg_config()),
+            AlgorithmKind::Matd3 => self.matd3 = Some(self.matd3_config()),
+            AlgorithmKind::Masac => self.masac = Some(self.masac_config()),
+        }
+        self
+    }
+
     /// MADDPG's settings (defaults where the section is absent).
     #[must_use]
     pub fn maddpg_config(&self) -> MaddpgConfig {
@@ -577,6 +591,23 @@ mod label_tests {
         let single = ExperimentConfig::load(&root.join("block_single_agent_sparse.toml")).unwrap();
         let six = ExperimentConfig::load(&root.join("block_sparse.toml")).unwrap();
         assert_eq!((single.label(), six.label()), ("Sparse, 1 agent".to_string(), "Sparse".to_string()));
+    }
+
+    // Guards the reproducibility of a run: its config.toml names every setting
+    // of its algorithm, also those the experiment file left to their defaults,
+    // so a later change of a default (say `teammates`) cannot change a run
+    // that is resumed or evaluated.
+    #[test]
+    fn a_written_config_records_the_algorithms_settings() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/block_dense_fmsr_is_quick.toml");
+        assert!(!std::fs::read_to_string(&path).unwrap().contains("[maddpg]"));
+        let written = ExperimentConfig::load(&path).unwrap().to_toml().unwrap();
+        let table: toml::Table = written.parse().unwrap();
+        let maddpg = table.get("maddpg").and_then(toml::Value::as_table).expect("a [maddpg] section");
+        for key in ["polyak", "teammates", "action_l2"] {
+            assert!(maddpg.contains_key(key), "[maddpg] lacks `{key}`:\n{written}");
+        }
+        assert!(!table.contains_key("matd3") && !table.contains_key("masac"), "{written}");
     }
 
     // Guards the report's grouping of the teammates ablation: its runs are
