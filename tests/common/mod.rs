@@ -30,19 +30,25 @@ pub fn trainer_config(method: Method, seed: u64, epochs: usize) -> TrainerConfig
 }
 
 /// The quick block config (`configs/`) cut down to seconds, with small networks.
+/// Every replacement must apply: a quick config that no longer holds one of
+/// these lines would otherwise give the CLI tests its full budget.
 pub fn tiny_config_text() -> String {
-    let base = std::fs::read_to_string("configs/block_dense_fmsr_is_quick.toml").unwrap();
-    let text = base
-        .replace("name = \"block_dense_fmsr_is_quick\"", "name = \"tiny\"")
-        .replace("epochs = 5", "epochs = 1")
-        .replace("cycles = 10", "cycles = 1")
-        .replace("batches = 20", "batches = 2")
-        .replace("batch_size = 256", "batch_size = 32")
-        .replace("eval_episodes = 5", "eval_episodes = 1")
-        .replace("episodes = 100", "episodes = 2")
-        .replace("hidden = 256", "hidden = 32")
-        .replace("layers = 3", "layers = 2");
-    assert_ne!(text, base, "the quick config changed: update this function");
+    let mut text = std::fs::read_to_string("configs/block_dense_fmsr_is_quick.toml").unwrap();
+    for (from, to) in [
+        ("name = \"block_dense_fmsr_is_quick\"", "name = \"tiny\""),
+        ("epochs = 8\n", "epochs = 1\n"),
+        ("cycles = 50\n", "cycles = 1\n"),
+        ("envs = 2\n", ""),
+        ("batches = 40\n", "batches = 2\n"),
+        ("batch_size = 256\n", "batch_size = 32\n"),
+        ("eval_episodes = 10\n", "eval_episodes = 1\n"),
+        ("episodes = 100\n", "episodes = 2\n"),
+        ("hidden = 256\n", "hidden = 32\n"),
+        ("layers = 3\n", "layers = 2\n"),
+    ] {
+        assert_eq!(text.matches(from).count(), 1, "the quick config changed (`{from}`): update this function");
+        text = text.replace(from, to);
+    }
     text
 }
 
