@@ -37,6 +37,11 @@
 //! information sharing, `[trainer.shadow]` without shadow rewards, `[matd3]`
 //! under `algorithm = "maddpg"`). The discount is `trainer.gamma`, used by the
 //! occupancy estimate and the critics alike.
+//!
+//! A run's `config.toml` is the resolved experiment: besides what its file
+//! said, it names every setting of the chosen algorithm's section with the
+//! value the run used, so changing a default in a later release never changes
+//! a saved run that is resumed or evaluated.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
