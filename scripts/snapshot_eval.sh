@@ -20,8 +20,16 @@ run=$1
 bin=$2
 shift 2
 epochs_done() { echo $(($(wc -l < "$1/metrics.csv") - 1)); }
+# The epochs the run trains to ([trainer] epochs of its config.toml; a resume
+# with --epochs rewrites it).
+epochs_planned() { sed -n 's/^epochs = \([0-9]*\)$/\1/p' "$1/config.toml" | head -n 1; }
 for k in "$@"; do
   snap="$run.snapshots/epoch-$(printf %02d "$k")"
+  until [ -f "$run/config.toml" ]; do sleep 15; done
+  if [ "$k" -ge "$(epochs_planned "$run")" ]; then
+    echo "epoch $k: skipped (the run trains $(epochs_planned "$run") epochs, 0 to $(($(epochs_planned "$run") - 1)))"
+    continue
+  fi
   until [ -f "$run/metrics.csv" ] && [ "$(epochs_done "$run")" -ge $((k + 1)) ]; do
     sleep 15
   done
