@@ -9,6 +9,11 @@
 //! - Fig. 4: the stability measures over one test episode (the first of the fixed
 //!   test set, the same for every policy) per task, `fig4_<task>.png`.
 //! - `summary.md`: a one-page summary linking all of it.
+//!
+//! A report written into a directory that holds an earlier one replaces it:
+//! the files an earlier report wrote there and this one does not (the figures
+//! of a task no longer reported, `cross_engine.md`, renderings of other runs)
+//! are removed first, and nothing else in the directory is touched.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -296,6 +301,48 @@ fn plot_time_domain(task: &str, best: &[(&RunRecord, &EvalReport)], path: &Path)
     Ok(())
 }
 
+/// Whether `name`, a file directly in a report directory, is one `write_report` writes.
+fn is_report_file(name: &str) -> bool {
+    matches!(name, "summary.md" | "table1.md" | "table2.md" | "cross_engine.md")
+        || ((name.starts_with("fig3_") || name.starts_with("fig4_")) && name.ends_with(".png"))
+}
+
+/// Whether `name`, a file in a report's `render/`, is one `renderings_section`
+/// writes: `NN-<config name>.gif` or `.png`.
+fn is_report_rendering(name: &str) -> bool {
+    let numbered = name.len() > 3 && name.as_bytes()[..2].iter().all(u8::is_ascii_digit) && name.as_bytes()[2] == b'-';
+    numbered && (name.ends_with(".gif") || name.ends_with(".png"))
+}
+
+/// Removes from `out` the files an earlier `write_report` left there, so that a
+/// report never shows a figure or rendering of runs it no longer covers. Other
+/// files are kept; `render/` is removed only if nothing else is in it.
+fn remove_previous_report(out: &Path) -> Result<(), ExperimentError> {
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| ExperimentError::Io { path, source }
+    };
+    let remove_matching = |dir: &Path, owned: fn(&str) -> bool| -> Result<(), ExperimentError> {
+        for entry in std::fs::read_dir(dir).map_err(io(dir))? {
+            let path = entry.map_err(io(dir))?.path();
+            let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            if path.is_file() && owned(&name) {
+                std::fs::remove_file(&path).map_err(io(&path))?;
+            }
+        }
+        Ok(())
+    };
+    remove_matching(out, is_report_file)?;
+    let render = out.join("render");
+    if render.is_dir() {
+        remove_matching(&render, is_report_rendering)?;
+        if std::fs::read_dir(&render).map_err(io(&render))?.next().is_none() {
+            std::fs::remove_dir(&render).map_err(io(&render))?;
+        }
+    }
+    Ok(())
+}
+
 /// Writes the tables, figures and summary of `runs` into `out`.
 pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, ExperimentError> {
     if runs.is_empty() {
@@ -303,6 +350,7 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
     }
     register_font();
     std::fs::create_dir_all(out).map_err(|source| ExperimentError::Io { path: out.to_path_buf(), source })?;
+    remove_previous_report(out)?;
     let mut by_task: BTreeMap<String, Vec<&RunRecord>> = BTreeMap::new();
     for r in runs {
         by_task.entry(r.task()).or_default().push(r);
@@ -380,4 +428,43 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
     write_atomic(&out.join("table1.md"), table1.as_bytes())?;
     write_atomic(&out.join("table2.md"), table2.as_bytes())?;
     Ok(files)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    // Guards the report's directory (regression): a report written over an
+    // earlier one used to leave that report's figures and renderings behind
+    // (a task or run no longer reported still showed in `render/`), while a
+    // user's own files in the directory must survive.
+    #[test]
+    fn a_new_report_removes_only_what_an_earlier_one_wrote() {
+        let tmp = tempfile::tempdir().unwrap();
+        let out = tmp.path();
+        let owned = ["summary.md", "table1.md", "table2.md", "cross_engine.md", "fig3_egg.png", "fig4_block.png"];
+        let kept = ["notes.md", "fig3_egg.svg", "figure.png", "render/notes.txt", "render/x-block.png"];
+        std::fs::create_dir(out.join("render")).unwrap();
+        for f in owned.iter().chain(&kept).chain(&["render/00-lite_egg.gif", "render/07-lite_block.png"]) {
+            std::fs::write(out.join(f), b"old").unwrap();
+        }
+        remove_previous_report(out).unwrap();
+        for f in owned.iter().chain(&["render/00-lite_egg.gif", "render/07-lite_block.png"]) {
+            assert!(!out.join(f).exists(), "{f} was left");
+        }
+        for f in kept {
+            assert!(out.join(f).exists(), "{f} was removed");
+        }
+    }
+
+    // Guards the same cleaning when `render/` held only renderings: it goes too.
+    #[test]
+    fn an_emptied_render_directory_is_removed() {
+        let tmp = tempfile::tempdir().unwrap();
+        std::fs::create_dir(tmp.path().join("render")).unwrap();
+        std::fs::write(tmp.path().join("render/01-tiny.gif"), b"old").unwrap();
+        remove_previous_report(tmp.path()).unwrap();
+        assert!(!tmp.path().join("render").exists());
+        remove_previous_report(tmp.path()).unwrap();
+    }
 }
