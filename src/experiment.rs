@@ -54,8 +54,8 @@ use fmsr_core::replay::ReplayConfig;
 use fmsr_envs::shadow_hand::ShadowHandConfig;
 use fmsr_graph::Graph;
 use fmsr_nn::{
-    AlgorithmKind, AnyLearner, Device, LearnerParts, Maddpg, MaddpgConfig, Masac, MasacConfig, Matd3, Matd3Config,
-    NetworkConfig, Teammates,
+    AlgorithmKind, AnyLearner, Device, DeviceSpec, LearnerParts, Maddpg, MaddpgConfig, Masac, MasacConfig, Matd3,
+    Matd3Config, NetworkConfig, Teammates,
 };
 
 /// The timestep of the Shadow Hand model (s); one env step is `substeps` of them.
@@ -164,7 +164,9 @@ pub struct ExperimentConfig {
     /// The physics engine.
     #[serde(default)]
     pub engine: Engine,
-    /// The burn device the networks live on: `"cpu"` (burn's `flex`, default).
+    /// The burn device the networks live on: `"cpu"` (burn's `flex`, default),
+    /// or with the `wgpu` / `vulkan` features a GPU such as `"wgpu:0"`,
+    /// `"vulkan:0"` or `"wgpu:cpu"` ([`parse_device`]).
     #[serde(default = "default_device")]
     pub device: String,
     /// The Shadow Hand task (object, thresholds, features).
@@ -282,18 +284,16 @@ fn key_of(method: Method) -> String {
     toml::Value::try_from(method).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default()
 }
 
-/// The parsed device of `device` (`"cpu"`/`"flex"`).
+/// The parsed device of `device`: `"cpu"`/`"flex"`, and with the `wgpu` or
+/// `vulkan` features `"wgpu"`, `"wgpu:N"`, `"wgpu:cpu"`, `"vulkan:N"`
+/// ([`fmsr_nn::device`]).
 ///
 /// # Errors
-/// [`ExperimentError::Config`] for a device this build cannot use.
+/// [`ExperimentError::Config`] for a device this build or this machine does
+/// not have, listing those it has.
 pub fn parse_device(device: &str) -> Result<Device, ExperimentError> {
-    match device {
-        "cpu" | "flex" => Ok(Device::flex()),
-        other => Err(ExperimentError::Config {
-            key: "device".into(),
-            reason: format!("`{other}` is not available in this build (known: \"cpu\")"),
-        }),
-    }
+    let invalid = |e: fmsr_nn::NnError| ExperimentError::Config { key: "device".into(), reason: e.to_string() };
+    device.parse::<DeviceSpec>().and_then(|d| d.device()).map_err(invalid)
 }
 
 /// Errors of experiments and runs.

@@ -60,7 +60,8 @@ struct TrainArgs {
     /// Seed of the trainer (and of the networks), overriding the config.
     #[arg(long)]
     seed: Option<u64>,
-    /// The burn device of the networks (`cpu`), overriding the config.
+    /// The burn device of the networks (`cpu`; `wgpu`, `wgpu:N`, `wgpu:cpu` with
+    /// `--features wgpu`; `vulkan:N` with `--features vulkan`), overriding the config.
     #[arg(long)]
     device: Option<String>,
     /// Number of epochs, overriding the config (with --resume: train up to this many).

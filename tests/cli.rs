@@ -175,7 +175,7 @@ fn render_writes_a_gif_and_png_frames_of_a_test_episode() {
 fn bad_configs_are_rejected_naming_the_key() {
     let tmp = tempfile::tempdir().unwrap();
     type Edit = fn(String) -> String;
-    let cases: [(Edit, &str); 13] = [
+    let cases: [(Edit, &str); 15] = [
         (|t| t + "[run]\ncheckpoint_replay = false\n", "`run`"),
         (|t| t.replace("batch_size = 32", "batch_size = \"many\""), "batch_size"),
         (|t| t.replace("hidden = 32", "hiden = 32"), "networks.hiden"),
@@ -208,6 +208,9 @@ fn bad_configs_are_rejected_naming_the_key() {
         (|t| t + "[graph]\nedges = [[\"thumb\", \"pinky\"]]\n", "pinky"),
         (|t| t.replace("threshold = 0.4", "threshold = -1.0"), "eval.threshold"),
         (|t| t + "[[env.agents]]\nname = \"hand\"\nactuators = [\"WRJ1\", \"WRJ0\"]\n", "env.agents"),
+        // A device this build does not have, and one that does not exist.
+        (|t| format!("device = \"vulkan:0\"\n{t}"), "device `vulkan:0`"),
+        (|t| format!("device = \"gpu\"\n{t}"), "device `gpu`"),
     ];
     for (i, (edit, key)) in cases.iter().enumerate() {
         let dir = tmp.path().join(format!("case{i}"));

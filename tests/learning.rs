@@ -6,28 +6,10 @@
 
 mod common;
 
-use common::{team_reach_trainer, team_reach_trainer_with};
+use common::{random_policy_success, team_reach_trainer, team_reach_trainer_with};
 use fmsr::prelude::*;
-use rand::{Rng, SeedableRng};
 
 const EPOCHS: usize = 12;
-
-/// Success rate of uniformly random joint actions on the evaluation seeds.
-fn random_policy_success(seeds: &[u64]) -> f64 {
-    let mut env = TeamReachConfig::default().init().unwrap();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(99);
-    let mut successes = 0;
-    for &seed in seeds {
-        env.reset(seed).unwrap();
-        let mut last = None;
-        for _ in 0..env.spec().episode_len {
-            let a = JointAction((0..6).map(|_| rng.random_range(-1.0..=1.0)).collect());
-            last = Some(env.step(&a).unwrap());
-        }
-        successes += usize::from(last.unwrap().info.is_success);
-    }
-    successes as f64 / seeds.len() as f64
-}
 
 #[test]
 fn every_configuration_learns_well_above_random() {

@@ -71,6 +71,16 @@ pub enum NnError {
         /// The backend's message.
         reason: String,
     },
+    /// A device string names a device this build or this machine does not have.
+    #[error("device `{device}`: {reason}; devices here: {available}")]
+    Device {
+        /// The device string as given.
+        device: String,
+        /// Why it cannot be used.
+        reason: String,
+        /// The device strings this build and machine can use, comma separated.
+        available: String,
+    },
     /// Saved state bytes are malformed (wrong magic, truncated, checksum mismatch).
     #[error("corrupted learner state at byte {offset}: {reason}")]
     CorruptState {

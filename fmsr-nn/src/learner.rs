@@ -1,63 +1,41 @@
-//! What MADDPG, MATD3 and MASAC share: per agent an actor, one or two critics,
-//! their targets and optimisers as burn modules that live on the device across
-//! updates; input normalisers; the HER replay buffer and its sampling; the
-//! critic and actor steps with worker averaging and information sharing; polyak
-//! targets; and save/restore.
+//! What MADDPG, MATD3 and MASAC share: the agents' networks in stacked
+//! groups ([`crate::group`], [`crate::Stacking`]) that live on the device
+//! across updates; input normalisers; the HER replay buffer and its sampling;
+//! the critic and actor steps with worker averaging and information sharing;
+//! polyak targets. Save/restore is in [`crate::state`].
+//!
+//! A step of the critics or actors runs every group's forward and backward
+//! pass (on worker threads when there are several groups), averages
+//! gradients over worker processes, mixes them over the graph in gradient
+//! mode, steps each group's optimiser and mixes parameters in parameter mode.
+//! With one group (GPUs) the kernels a joint update launches do not depend on
+//! the number of agents.
+//!
+//! Rollouts act on a host copy of the actors (burn's `flex` device), made
+//! once after each update phase, so an environment step never waits for a
+//! round trip to an accelerator.
 
 use burn::module::Module;
-use burn::nn::Linear;
-use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
+use burn::optim::{AdamConfig, GradientsParams};
 use burn::tensor::{Device, Tensor, TensorData};
 use fmsr_core::RewardModel;
 use fmsr_core::agent::{Batch, Communicator, ObservationLayout, Sharing};
 use fmsr_core::replay::{Episode, ReplayBuffer, ReplayConfig};
-use fmsr_core::sharing::{InformationSharing, NetworkGroup};
+use fmsr_core::sharing::{InformationSharing, NetworkGroup, SharedParameters};
+use fmsr_graph::MixingMatrix;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::config::NetworkConfig;
+use crate::config::{NetworkConfig, Stacking};
 use crate::error::{NnError, check_values};
-use crate::mixing::{GradHolder, ParamHolder, all_reduce, group_trunk_ids};
-use crate::net::{Actor, Critic, Critics, NetShape};
+use crate::group::{Group, GroupBatch, GroupSpec, to_vec1};
+use crate::mixing::{all_reduce, mix_gradients, mix_stacks};
+use crate::net::Critics;
 use crate::normalizer::Normalizer;
-use crate::workers::{par_agents, worker_pools};
-
-/// Everything one agent learns with.
-#[derive(Clone)]
-pub(crate) struct AgentNets {
-    /// Online actor, on the autodiff device.
-    pub(crate) actor: Actor,
-    /// Target actor, on the plain device.
-    pub(crate) actor_target: Actor,
-    /// Online critics, on the autodiff device.
-    pub(crate) critics: Critics,
-    /// Target critics, on the plain device.
-    pub(crate) critic_targets: Critics,
-    pub(crate) actor_optim: ModuleOptimizer,
-    pub(crate) critic_optim: ModuleOptimizer,
-    pub(crate) actor_norm: Normalizer,
-}
-
-impl AgentNets {
-    /// The gradients of `loss` with respect to the networks of `group`.
-    fn gradients(&self, group: NetworkGroup, loss: Tensor<1>) -> GradientsParams {
-        match group {
-            NetworkGroup::Actors => GradientsParams::from_grads(loss.backward(), &self.actor),
-            NetworkGroup::Critics => GradientsParams::from_grads(loss.backward(), &self.critics),
-        }
-    }
-
-    /// One Adam step of the networks of `group`.
-    fn optimize(&mut self, group: NetworkGroup, lr: f64, grads: GradientsParams) {
-        match group {
-            NetworkGroup::Actors => self.actor = self.actor_optim.step(lr, self.actor.clone(), grads),
-            NetworkGroup::Critics => self.critics = self.critic_optim.step(lr, self.critics.clone(), grads),
-        }
-    }
-}
+use crate::workers::{par_each, worker_pools};
 
 /// A sampled batch on the device: normalised inputs, joint actions in
-/// agent-major column order, rewards and Q-target bounds.
+/// agent-major column order, and each group's share.
 #[derive(Clone)]
 pub(crate) struct BatchTensors {
     pub(crate) n: usize,
@@ -67,39 +45,8 @@ pub(crate) struct BatchTensors {
     pub(crate) og_next: Tensor<2>,
     /// `a_1 .. a_N` agent-major, `n x action_dim`.
     pub(crate) actions: Tensor<2>,
-    /// Each agent's normalised actor input at `t`.
-    pub(crate) x_now: Vec<Tensor<2>>,
-    /// Each agent's normalised actor input at `t + 1`.
-    pub(crate) x_next: Vec<Tensor<2>>,
-    /// Each agent's reward, `n x 1`.
-    pub(crate) rewards: Vec<Tensor<2>>,
-    /// Each agent's Q-target bounds `[lo, hi] / (1 - gamma)` (`clip_return`).
-    pub(crate) bounds: Vec<(f32, f32)>,
-}
-
-/// Where each agent's block lies in the agent-major joint action.
-#[derive(Debug, Clone)]
-pub(crate) struct JointLayout {
-    offsets: Vec<usize>,
-    dims: Vec<usize>,
-    width: usize,
-}
-
-impl JointLayout {
-    /// The critic input `[x, g, a]` on the autodiff device with agent `i`'s
-    /// block of the sampled joint action replaced by `mu` (`n x action_dim(i)`).
-    pub(crate) fn with(&self, i: usize, mu: Tensor<2>, b: &BatchTensors) -> Tensor<2> {
-        let (off, ai, ad) = (self.offsets[i], self.dims[i], self.width);
-        let mut parts = vec![Tensor::from_inner(b.og.clone())];
-        if off > 0 {
-            parts.push(Tensor::from_inner(b.actions.clone().narrow(1, 0, off)));
-        }
-        parts.push(mu);
-        if off + ai < ad {
-            parts.push(Tensor::from_inner(b.actions.clone().narrow(1, off + ai, ad - off - ai)));
-        }
-        Tensor::cat(parts, 1)
-    }
+    /// Each group's inputs, rewards and bounds.
+    pub(crate) groups: Vec<GroupBatch>,
 }
 
 /// The shared machinery; see the [module docs](self).
@@ -110,25 +57,25 @@ pub(crate) struct Learner {
     pub(crate) gamma: f64,
     pub(crate) sharing: InformationSharing,
     pub(crate) comm: Box<dyn Communicator>,
+    /// The plain device (targets, batches); its autodiff twin holds the online networks.
     pub(crate) device: Device,
-    pub(crate) agents: Vec<AgentNets>,
+    pub(crate) groups: Vec<Group>,
+    pub(crate) actor_norms: Vec<Normalizer>,
     pub(crate) critic_norm: Normalizer,
-    /// Start of each agent's block in the agent-major joint action.
-    pub(crate) offsets: Vec<usize>,
     /// Agent-major order of the joint action: `perm[k]` is the joint slot of column `k`.
     perm: Vec<usize>,
     pub(crate) replay: ReplayBuffer,
     pub(crate) rng: ChaCha8Rng,
     /// Gradient steps taken.
     pub(crate) steps: u64,
-    pub(crate) act_cache: Option<Vec<Actor>>,
     pools: Vec<rayon::ThreadPool>,
 }
 
 impl std::fmt::Debug for Learner {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Learner")
-            .field("agents", &self.agents.len())
+            .field("agents", &self.num_agents())
+            .field("groups", &self.groups.len())
             .field("net", &self.net)
             .field("replay", &self.replay.episodes())
             .field("steps", &self.steps)
@@ -186,33 +133,12 @@ impl LearnerParts {
         self
     }
 
-    /// On another device.
+    /// On another device (see [`crate::device`]).
     #[must_use]
     pub fn with_device(mut self, device: Device) -> Self {
         self.device = device;
         self
     }
-}
-
-/// Parameter ids: agent `i`'s network `k` starts at `(i + 1) << 24 | k << 16`.
-fn id_base(agent: usize, net: u64) -> u64 {
-    ((agent as u64 + 1) << 24) | (net << 16)
-}
-
-/// Initial flat parameters of every agent's network of `shape`; with `same_trunk`
-/// every agent starts from agent 0's trunk, so mixing begins at consensus.
-fn initial(shapes: &[NetShape], seed: u64, stream: impl Fn(usize) -> u64, same_trunk: bool) -> Vec<Vec<f32>> {
-    let mut flats: Vec<Vec<f32>> = shapes.iter().enumerate().map(|(i, s)| s.init(seed, stream(i))).collect();
-    if same_trunk && let Some(first) = flats.first().cloned() {
-        let r0 = shapes[0].trunk();
-        for (flat, shape) in flats.iter_mut().zip(shapes).skip(1) {
-            let r = shape.trunk();
-            if r.len() == r0.len() {
-                flat[r].copy_from_slice(&first[r0.clone()]);
-            }
-        }
-    }
-    flats
 }
 
 /// Checks what the networks need of the parts: a discount in `[0, 1)`, agents
@@ -247,57 +173,48 @@ fn check_parts(layout: &ObservationLayout, gamma: f64, sharing: Option<&Sharing>
     }
 }
 
-/// Every agent's networks and optimisers: online networks on the autodiff
-/// twin of `device`, targets on `device`; trunks that sharing mixes start equal.
-fn build_agents(
-    layout: &ObservationLayout,
-    net: &NetworkConfig,
-    sharing: &InformationSharing,
-    device: &Device,
-    critics: usize,
-    head_mult: usize,
-) -> Vec<AgentNets> {
-    let spec = layout.spec();
-    let n = spec.num_agents();
-    let ad_device = device.clone().autodiff();
-    let actor_shapes: Vec<NetShape> = (0..n)
-        .map(|i| {
-            NetShape::mlp(layout.actor_input_dim(i), net.hidden, net.layers, head_mult * spec.agents[i].action_dim())
-        })
-        .collect();
-    let critic_shapes = vec![NetShape::mlp(layout.critic_input_dim(), net.hidden, net.layers, 1); n];
-    // ChaCha8 streams: 8i for agent i's actor, 8i + 1 + 2c for its critic c.
-    let actor_flats = initial(&actor_shapes, net.seed, |i| 8 * i as u64, sharing.shares(NetworkGroup::Actors));
-    let critic_flats: Vec<Vec<Vec<f32>>> = (0..critics)
-        .map(|c| {
-            let stream = |i: usize| 8 * i as u64 + 1 + 2 * c as u64;
-            initial(&critic_shapes, net.seed, stream, sharing.shares(NetworkGroup::Critics))
-        })
-        .collect();
-    let adam = AdamConfig::new()
-        .with_beta_1(net.adam_beta1 as f32)
-        .with_beta_2(net.adam_beta2 as f32)
-        .with_epsilon(net.adam_epsilon as f32);
-    (0..n)
-        .map(|i| {
-            let critics_on = |dev: &Device, kind: u64| Critics {
-                nets: (0..critics)
-                    .map(|c| {
-                        Critic::from_flat(&critic_shapes[i], &critic_flats[c][i], dev, id_base(i, kind + 2 * c as u64))
-                    })
-                    .collect(),
-            };
-            AgentNets {
-                actor: Actor::from_flat(&actor_shapes[i], &actor_flats[i], &ad_device, id_base(i, 0)),
-                actor_target: Actor::from_flat(&actor_shapes[i], &actor_flats[i], device, id_base(i, 1)),
-                critics: critics_on(&ad_device, 2),
-                critic_targets: critics_on(device, 3),
-                actor_optim: adam.init(),
-                critic_optim: adam.init(),
-                actor_norm: Normalizer::new(layout.actor_input_dim(i), net.norm_eps, net.clip_obs),
-            }
-        })
-        .collect()
+/// The agent ranges of the groups `stacking` asks for on `device`.
+fn group_ranges(stacking: Stacking, agents: usize, device: &Device) -> Vec<std::ops::Range<usize>> {
+    let per_agent = match stacking {
+        Stacking::PerAgent => true,
+        Stacking::All => false,
+        Stacking::Auto => *device == Device::flex(),
+    };
+    if per_agent { (0..agents).map(|i| i..i + 1).collect() } else { std::iter::once(0..agents).collect() }
+}
+
+/// Every agent's information-sharing view: the groups' stacks of one kind.
+struct Shared<'a> {
+    groups: &'a mut [Group],
+}
+
+impl SharedParameters for Shared<'_> {
+    type Error = NnError;
+
+    fn consensus_step(&mut self, kind: NetworkGroup, mixing: &MixingMatrix) -> Result<(), NnError> {
+        let copies = self.groups.first_mut().map_or(0, |g| g.nets.stacks(kind).len());
+        for c in 0..copies {
+            let stacks = self.groups.iter_mut().map(|g| g.nets.stacks(kind).swap_remove(c)).collect();
+            mix_stacks(stacks, mixing)?;
+        }
+        Ok(())
+    }
+}
+
+/// Every group's gradients of one kind, as gradient-mode sharing sees them.
+struct SharedGrads<'a> {
+    grads: &'a mut [GradientsParams],
+    ids: Vec<Vec<(burn::module::ParamId, burn::module::ParamId)>>,
+    agents: usize,
+    device: Device,
+}
+
+impl SharedParameters for SharedGrads<'_> {
+    type Error = NnError;
+
+    fn consensus_step(&mut self, _: NetworkGroup, mixing: &MixingMatrix) -> Result<(), NnError> {
+        mix_gradients(self.grads, &self.ids, self.agents, mixing, &self.device)
+    }
 }
 
 impl Learner {
@@ -319,14 +236,31 @@ impl Learner {
         let spec = layout.spec().clone();
         let sharing = InformationSharing::new(sharing);
         let device = device.inner();
-        let agents = build_agents(&layout, &net, &sharing, &device, critics, head_mult);
-        let mut perm = Vec::with_capacity(spec.action_dim);
-        let mut offsets = Vec::with_capacity(agents.len());
-        for a in &spec.agents {
-            offsets.push(perm.len());
-            perm.extend_from_slice(&a.action_slots);
-        }
-        let pools = worker_pools(net.threads.min(agents.len()))?;
+        let na = spec.num_agents();
+        let inputs: Vec<usize> = (0..na).map(|i| layout.actor_input_dim(i)).collect();
+        let actions: Vec<usize> = spec.agents.iter().map(|a| a.action_dim()).collect();
+        let group_spec = GroupSpec {
+            inputs: &inputs,
+            actions: &actions,
+            critic_input: layout.critic_input_dim(),
+            hidden: net.hidden,
+            layers: net.layers,
+            seed: net.seed,
+            critics,
+            head_mult,
+            same_trunks: (sharing.shares(NetworkGroup::Actors), sharing.shares(NetworkGroup::Critics)),
+            adam: AdamConfig::new()
+                .with_beta_1(net.adam_beta1 as f32)
+                .with_beta_2(net.adam_beta2 as f32)
+                .with_epsilon(net.adam_epsilon as f32),
+        };
+        let groups: Vec<Group> = group_ranges(net.stacking, na, &device)
+            .into_iter()
+            .enumerate()
+            .map(|(g, r)| Group::new(g, r, &group_spec, spec.action_dim, &device))
+            .collect();
+        let perm = spec.agents.iter().flat_map(|a| a.action_slots.iter().copied()).collect();
+        let pools = worker_pools(net.threads.min(groups.len()))?;
         let replay = ReplayBuffer::new(&spec, replay_config.buffer_size)
             .map_err(|e| NnError::InvalidConfig { key: "replay.buffer_size", reason: e.to_string() })?;
         // Networks start identical on every worker; exploration and sampling
@@ -335,6 +269,7 @@ impl Learner {
         rng.set_stream(0xF115 + comm.rank() as u64);
         Ok(Self {
             critic_norm: Normalizer::new(spec.obs_dim + spec.goal_dim, net.norm_eps, net.clip_obs),
+            actor_norms: inputs.iter().map(|&d| Normalizer::new(d, net.norm_eps, net.clip_obs)).collect(),
             layout,
             net,
             replay_config,
@@ -342,25 +277,18 @@ impl Learner {
             sharing,
             comm,
             device,
-            agents,
-            offsets,
+            groups,
             perm,
             replay,
             rng,
             steps: 0,
-            act_cache: None,
             pools,
         })
     }
 
-    /// Agent `agent`'s networks.
-    fn agent(&self, agent: usize) -> Result<&AgentNets, NnError> {
-        self.agents.get(agent).ok_or(NnError::UnknownAgent { agent, agents: self.agents.len() })
-    }
-
     /// Number of agents.
     pub(crate) fn num_agents(&self) -> usize {
-        self.agents.len()
+        self.actor_norms.len()
     }
 
     /// Agent `i`'s action dimension.
@@ -368,9 +296,43 @@ impl Learner {
         self.layout.spec().agents[i].action_dim()
     }
 
-    /// The actors' head outputs (pre-activation) for `n` rows of raw actor inputs.
+    /// The group of agent `agent` and the agent's index in it.
+    pub(crate) fn locate(&self, agent: usize) -> Result<(usize, usize), NnError> {
+        self.groups
+            .iter()
+            .position(|g| g.agents.contains(&agent))
+            .map(|g| (g, agent - self.groups[g].agents.start))
+            .ok_or(NnError::UnknownAgent { agent, agents: self.num_agents() })
+    }
+
+    /// `f(g, group_g)` for every group, on the worker threads.
+    pub(crate) fn per_group<T: Send>(
+        &mut self,
+        f: impl Fn(usize, &mut Group) -> Result<T, NnError> + Sync,
+    ) -> Result<Vec<T>, NnError> {
+        par_each(&self.pools, &mut self.groups, f)
+    }
+
+    /// Group `g`'s agents' normalised actor inputs, zero-padded to `[A_g, n, in_max]`, as host data.
+    fn padded_inputs(&self, g: usize, xs: &[Vec<f32>], n: usize) -> Vec<f32> {
+        let group = &self.groups[g];
+        let width = group.input_width();
+        let mut out = vec![0.0; group.len() * n * width];
+        for (k, i) in group.agents.clone().enumerate() {
+            let mut x = xs[i].clone();
+            self.actor_norms[i].normalize(&mut x);
+            let d = self.actor_norms[i].dim();
+            for (r, row) in x.chunks_exact(d).take(n).enumerate() {
+                out[(k * n + r) * width..][..d].copy_from_slice(row);
+            }
+        }
+        out
+    }
+
+    /// The actors' head outputs (pre-activation) for `n` rows of raw actor
+    /// inputs, each agent's in its own column order, computed on the host copy.
     pub(crate) fn heads(&mut self, inputs: &[Vec<f32>], n: usize) -> Result<Vec<Vec<f32>>, NnError> {
-        let na = self.agents.len();
+        let na = self.num_agents();
         if inputs.len() != na {
             return Err(NnError::Dimension { what: "actor inputs (agents)".into(), expected: na, found: inputs.len() });
         }
@@ -380,22 +342,30 @@ impl Learner {
         if n == 0 {
             return Ok(vec![Vec::new(); na]);
         }
-        if self.act_cache.is_none() {
-            self.act_cache = Some(self.agents.iter().map(|a| a.actor.valid()).collect());
+        let host = Device::flex();
+        let mut out = Vec::with_capacity(na);
+        for g in 0..self.groups.len() {
+            let x = self.padded_inputs(g, inputs, n);
+            let group = &mut self.groups[g];
+            if group.act_cache.is_none() {
+                group.act_cache = Some(group.nets.actors.copy_to(&host)?);
+            }
+            let actors =
+                group.act_cache.as_ref().ok_or(NnError::Backend { what: "actors", reason: "no host copy".into() })?;
+            let x = Tensor::<3>::from_data(TensorData::new(x, [group.len(), n, group.input_width()]), &host);
+            let y = actors.forward(x);
+            let w = y.dims()[2];
+            let y = y
+                .into_data()
+                .try_into_vec::<f32>()
+                .map_err(|e| NnError::Backend { what: "actions", reason: format!("{e:?}") })?;
+            for (k, cols) in group.actor_layout.head_cols.iter().enumerate() {
+                out.push(
+                    (0..n).flat_map(|r| cols.iter().map(|&c| y[(k * n + r) * w + c]).collect::<Vec<_>>()).collect(),
+                );
+            }
         }
-        let Some(actors) = self.act_cache.as_ref() else {
-            return Err(NnError::Backend { what: "actors", reason: "not built".into() });
-        };
-        actors
-            .iter()
-            .zip(&self.agents)
-            .zip(inputs)
-            .map(|((actor, a), x)| {
-                let mut x = x.clone();
-                a.actor_norm.normalize(&mut x);
-                to_vec(actor.forward(matrix(x, n, a.actor_norm.dim(), &self.device)), "actions")
-            })
-            .collect()
+        Ok(out)
     }
 
     /// Stores an episode in the replay buffer.
@@ -432,10 +402,10 @@ impl Learner {
             )
             .map_err(|e| NnError::Replay { reason: e.to_string() })?;
         let bounds = rewards.reward_bounds();
-        if bounds.len() != self.agents.len() {
+        if bounds.len() != self.num_agents() {
             return Err(NnError::Dimension {
                 what: "reward bounds (agents)".into(),
-                expected: self.agents.len(),
+                expected: self.num_agents(),
                 found: bounds.len(),
             });
         }
@@ -446,7 +416,7 @@ impl Learner {
 
     fn check_batch(&self, b: &Batch, bounds: &[(f32, f32)]) -> Result<(), NnError> {
         let spec = self.layout.spec();
-        let (n, na) = (b.size, self.agents.len());
+        let (n, na) = (b.size, self.num_agents());
         if n == 0 {
             return Err(NnError::Dimension { what: "batch.size (must be positive)".into(), expected: 1, found: 0 });
         }
@@ -506,46 +476,46 @@ impl Learner {
         };
         let (mut og, mut og_next) = (obs_goal(&b.obs), obs_goal(&b.next_obs));
         self.critic_norm.update(&og, self.comm.as_ref());
-        for (a, x) in self.agents.iter_mut().zip(&b.actor_inputs) {
-            a.actor_norm.update(x, self.comm.as_ref());
+        for (norm, x) in self.actor_norms.iter_mut().zip(&b.actor_inputs) {
+            norm.update(x, self.comm.as_ref());
         }
         self.critic_norm.normalize(&mut og);
         self.critic_norm.normalize(&mut og_next);
-        let ogd = od + gd;
-        let dev = &self.device;
-        let inputs = |xs: &[Vec<f32>]| -> Vec<Tensor<2>> {
-            xs.iter()
-                .zip(&self.agents)
-                .map(|(x, a)| {
-                    let mut x = x.clone();
-                    a.actor_norm.normalize(&mut x);
-                    matrix(x, n, a.actor_norm.dim(), dev)
-                })
-                .collect()
-        };
         let ad = self.perm.len();
         let mut actions = Vec::with_capacity(n * ad);
         for row in b.actions.chunks_exact(ad).take(n) {
             actions.extend(self.perm.iter().map(|&s| row[s]));
         }
+        let groups = (0..self.groups.len()).map(|g| self.group_batch(g, b, &bounds)).collect();
+        let dev = &self.device;
         Ok(BatchTensors {
             n,
-            og: matrix(og, n, ogd, dev),
-            og_next: matrix(og_next, n, ogd, dev),
+            og: matrix(og, n, od + gd, dev),
+            og_next: matrix(og_next, n, od + gd, dev),
             actions: matrix(actions, n, ad, dev),
-            x_now: inputs(&b.actor_inputs),
-            x_next: inputs(&b.next_actor_inputs),
-            rewards: b.rewards.iter().map(|r| matrix(r.clone(), n, 1, dev)).collect(),
-            bounds,
+            groups,
         })
     }
 
-    /// `f(i, agent_i)` for every agent, on the worker threads.
-    pub(crate) fn per_agent<T: Send>(
-        &mut self,
-        f: impl Fn(usize, &AgentNets) -> Result<T, NnError> + Sync,
-    ) -> Result<Vec<T>, NnError> {
-        par_agents(&self.pools, &mut self.agents, |i, a| f(i, a))
+    /// Group `g`'s share of a checked host batch.
+    fn group_batch(&self, g: usize, b: &Batch, bounds: &[(f32, f32)]) -> GroupBatch {
+        let (n, dev) = (b.size, &self.device);
+        let group = &self.groups[g];
+        let (a, width, r) = (group.len(), group.input_width(), group.agents.clone());
+        let stack = |v: Vec<f32>, cols: usize| Tensor::<3>::from_data(TensorData::new(v, [a, n, cols]), dev);
+        let per_agent = |f: fn(&(f32, f32)) -> f32| {
+            Tensor::<3>::from_data(
+                TensorData::new(bounds[r.clone()].iter().map(f).collect::<Vec<f32>>(), [a, 1, 1]),
+                dev,
+            )
+        };
+        GroupBatch {
+            x_now: stack(self.padded_inputs(g, &b.actor_inputs, n), width),
+            x_next: stack(self.padded_inputs(g, &b.next_actor_inputs, n), width),
+            rewards: stack(b.rewards[r.clone()].concat(), 1),
+            lo: per_agent(|b| b.0),
+            hi: per_agent(|b| b.1),
+        }
     }
 
     /// One optimiser step of every agent's critics towards the clipped TD target (eq. 7)
@@ -555,171 +525,176 @@ impl Learner {
     /// L_i = sum_c mean (Q_{i,c}(x, g, a) - y_i)^2
     /// ```
     ///
-    /// where `a'` is `next_actions` (agent-major) and `soft_i` an optional
-    /// per-sample term (MASAC's `alpha_i log pi_i`). Returns the losses.
+    /// for every group's agents at once, where `a'` is `next_actions`
+    /// (`[n, action_dim]`, agent-major) and `soft[g]` an optional `[A_g, n, 1]`
+    /// term (MASAC's `alpha_i log pi_i`). Returns the agents' losses.
     pub(crate) fn critic_step(
         &mut self,
         b: &BatchTensors,
         next_actions: Tensor<2>,
-        soft: Option<Vec<Tensor<2>>>,
+        soft: Option<Vec<Tensor<3>>>,
     ) -> Result<Vec<f32>, NnError> {
-        let next_input = Tensor::cat(vec![b.og_next.clone(), next_actions], 1);
-        let input = Tensor::from_inner(Tensor::cat(vec![b.og.clone(), b.actions.clone()], 1));
+        let next_input = Tensor::cat(vec![b.og_next.clone(), next_actions], 1).unsqueeze_dim::<3>(0);
+        let input = Tensor::from_inner(Tensor::cat(vec![b.og.clone(), b.actions.clone()], 1).unsqueeze_dim::<3>(0));
         let gamma = self.gamma as f32;
-        self.step_group(NetworkGroup::Critics, |i, a| {
-            let mut q_next = a.critic_targets.nets.iter().map(|c| c.forward(next_input.clone()));
+        self.step_groups(NetworkGroup::Critics, |g, group| {
+            let (gb, na) = (&b.groups[g], group.len());
+            let mut q_next = group.nets.critic_targets.nets.iter().map(|c| c.forward(next_input.clone()));
             let first = q_next.next().ok_or(NnError::Backend { what: "critic target", reason: "no critic".into() })?;
             let mut q_next = q_next.fold(first, Tensor::min_pair);
             if let Some(soft) = &soft {
-                q_next = q_next - soft[i].clone();
+                q_next = q_next - soft[g].clone();
             }
-            let (lo, hi) = b.bounds[i];
-            let y = Tensor::from_inner((b.rewards[i].clone() + q_next.mul_scalar(gamma)).clamp(lo, hi));
-            let mut loss: Option<Tensor<1>> = None;
-            for c in &a.critics.nets {
-                let l = (c.forward(input.clone()) - y.clone()).square().mean();
+            let shape = [na, b.n, 1];
+            let y = (gb.rewards.clone() + q_next.mul_scalar(gamma))
+                .max_pair(gb.lo.clone().expand(shape))
+                .min_pair(gb.hi.clone().expand(shape));
+            let y = Tensor::from_inner(y);
+            let mut loss: Option<Tensor<3>> = None;
+            for c in &group.nets.critics.nets {
+                let l = (c.forward(input.clone()) - y.clone()).square().mean_dim(1);
                 loss = Some(match loss {
                     Some(acc) => acc + l,
                     None => l,
                 });
             }
-            loss.ok_or(NnError::Backend { what: "critic loss", reason: "no critic".into() })
+            Ok(loss.ok_or(NnError::Backend { what: "critic loss", reason: "no critic".into() })?.reshape([na]))
         })
     }
 
-    /// One optimiser step of every agent's actor on `loss(i, actor, critics, b)`,
-    /// where `critics` are agent `i`'s online critics without parameter gradients.
-    pub(crate) fn actor_step<F>(&mut self, b: &BatchTensors, loss: F) -> Result<Vec<f32>, NnError>
+    /// One optimiser step of every agent's actor on the losses `[A_g]` that
+    /// `loss(g, group, critics)` returns for each group, where `critics` are
+    /// the group's online critics without parameter gradients.
+    pub(crate) fn actor_step<F>(&mut self, loss: F) -> Result<Vec<f32>, NnError>
     where
-        F: Fn(usize, &Actor, &Critics, &BatchTensors) -> Result<Tensor<1>, NnError> + Sync,
+        F: Fn(usize, &Group, &Critics) -> Result<Tensor<1>, NnError> + Sync,
     {
-        let losses =
-            self.step_group(NetworkGroup::Actors, |i, a| loss(i, &a.actor, &a.critics.clone().no_grad(), b))?;
-        self.act_cache = None;
+        let losses = self.step_groups(NetworkGroup::Actors, |g, group| {
+            let critics = group.nets.critics.clone().no_grad();
+            loss(g, group, &critics)
+        })?;
+        for group in &mut self.groups {
+            group.act_cache = None;
+        }
         Ok(losses)
     }
 
-    /// Every agent's loss of `group`, its gradient and its optimiser step, then
-    /// parameter-mode sharing. Without other workers and without gradient
-    /// sharing nothing crosses agents before the step, so each agent's step
-    /// runs in its own worker right after its backward pass; otherwise the
-    /// gradients are first averaged over workers and mixed over the graph.
-    fn step_group<F>(&mut self, group: NetworkGroup, loss: F) -> Result<Vec<f32>, NnError>
+    /// Every group's losses of `kind`, their gradients and optimiser steps,
+    /// then parameter-mode sharing. Without other workers and without
+    /// gradient sharing nothing crosses groups before the step, so each
+    /// group steps in its own worker right after its backward pass; otherwise
+    /// the gradients are first averaged over workers and mixed over the graph.
+    fn step_groups<F>(&mut self, kind: NetworkGroup, loss: F) -> Result<Vec<f32>, NnError>
     where
-        F: Fn(usize, &AgentNets) -> Result<Tensor<1>, NnError> + Sync,
+        F: Fn(usize, &Group) -> Result<Tensor<1>, NnError> + Sync,
     {
-        let fused = self.comm.workers() <= 1 && !self.sharing.mixes_gradients(group);
-        let lr = match group {
+        let fused = self.comm.workers() <= 1 && !self.sharing.mixes_gradients(kind);
+        let lr = match kind {
             NetworkGroup::Actors => self.net.lr_actor,
             NetworkGroup::Critics => self.net.lr_critic,
         };
-        let results = par_agents(&self.pools, &mut self.agents, |i, a| {
-            let l = loss(i, a)?;
-            let value = scalar(&l)?;
-            let grads = a.gradients(group, l);
-            if fused {
-                a.optimize(group, lr, grads);
-                Ok((value, None))
-            } else {
-                Ok((value, Some(grads)))
-            }
+        let results = self.per_group(|g, group| {
+            let l = loss(g, group)?;
+            group.nets.step(kind, l, lr, fused)
         })?;
-        let (losses, grads): (Vec<f32>, Vec<Option<GradientsParams>>) = results.into_iter().unzip();
+        let (losses, grads): (Vec<Vec<f32>>, Vec<Option<GradientsParams>>) = results.into_iter().unzip();
         if !fused {
-            self.reduce_mix_optimize(group, lr, grads.into_iter().flatten().collect())?;
+            self.reduce_mix_optimize(kind, lr, grads.into_iter().flatten().collect())?;
         }
-        let mut holder = ParamHolder { agents: &mut self.agents };
-        self.sharing.mix_parameters(group, &mut holder)?;
-        Ok(losses)
+        self.sharing.mix_parameters(kind, &mut Shared { groups: &mut self.groups })?;
+        Ok(losses.concat())
     }
 
-    /// `b` with the sampled joint actions replaced by every agent's current
-    /// action `squash(head_j(o_j), j)` (no gradient): the teammates' actions of
-    /// [`crate::Teammates::Current`].
-    pub(crate) fn with_current_actions(
-        &mut self,
-        b: &BatchTensors,
-        squash: impl Fn(Tensor<2>, usize) -> Tensor<2> + Sync,
-    ) -> Result<BatchTensors, NnError> {
-        let actions = self.per_agent(|j, a| Ok(squash(a.actor.valid().forward(b.x_now[j].clone()), j)))?;
-        Ok(BatchTensors { actions: Tensor::cat(actions, 1), ..b.clone() })
-    }
-
-    /// Where each agent's block lies in the agent-major joint action.
-    pub(crate) fn joint(&self) -> JointLayout {
-        JointLayout {
-            offsets: self.offsets.clone(),
-            dims: (0..self.agents.len()).map(|i| self.action_dim(i)).collect(),
-            width: self.perm.len(),
-        }
-    }
-
-    /// Worker averaging and gradient-mode sharing, then every agent's optimiser step.
+    /// Worker averaging and gradient-mode sharing, then every group's optimiser step.
     fn reduce_mix_optimize(
         &mut self,
-        group: NetworkGroup,
+        kind: NetworkGroup,
         lr: f64,
         mut grads: Vec<GradientsParams>,
     ) -> Result<(), NnError> {
         if self.comm.workers() > 1 {
-            for (a, g) in self.agents.iter().zip(grads.iter_mut()) {
-                let layers = match group {
-                    NetworkGroup::Actors => a.actor.layers(),
-                    NetworkGroup::Critics => a.critics.nets.iter().flat_map(Critic::layers).collect(),
-                };
-                all_reduce(g, &layers, self.comm.as_ref())?;
+            for (group, g) in self.groups.iter().zip(grads.iter_mut()) {
+                all_reduce(g, &group.nets.ids(kind), self.comm.as_ref())?;
             }
         }
-        if self.sharing.mixes_gradients(group) {
-            let ids: Vec<_> = self.agents.iter().map(|a| group_trunk_ids(a, group)).collect();
-            let mut holder = GradHolder { grads: &mut grads, ids: &ids };
-            self.sharing.mix_gradients(group, &mut holder)?;
+        if self.sharing.mixes_gradients(kind) {
+            let ids = self.groups.iter().map(|g| g.nets.trunk_ids(kind)).collect();
+            let (agents, device) = (self.num_agents(), self.device.clone());
+            self.sharing.mix_gradients(kind, &mut SharedGrads { grads: &mut grads, ids, agents, device })?;
         }
-        for (a, g) in self.agents.iter_mut().zip(grads) {
-            a.optimize(group, lr, g);
+        for (group, g) in self.groups.iter_mut().zip(grads) {
+            group.nets.optimize(kind, lr, g);
         }
         Ok(())
+    }
+
+    /// The agent-major joint action `[n, action_dim]` of `f(g, group)`, each
+    /// group's agents' actions `[A_g, n, d_max]` (masked by the group).
+    pub(crate) fn joint_of(
+        &mut self,
+        f: impl Fn(usize, &Group) -> Result<Tensor<3>, NnError> + Sync,
+    ) -> Result<Tensor<2>, NnError> {
+        let parts = self.per_group(|g, group| Ok(group.joint.join(f(g, group)? * group.joint.mask.clone())))?;
+        let mut parts = parts.into_iter();
+        let first = parts.next().ok_or(NnError::Backend { what: "joint action", reason: "no group".into() })?;
+        Ok(parts.fold(first, |acc, p| acc + p))
+    }
+
+    /// `b` with the sampled joint actions replaced by every agent's current
+    /// action `squash(heads)` (no gradient): the teammates' actions of
+    /// [`crate::Teammates::Current`].
+    pub(crate) fn with_current_actions(
+        &mut self,
+        b: &BatchTensors,
+        squash: impl Fn(Tensor<3>, &Group) -> Tensor<3> + Sync,
+    ) -> Result<BatchTensors, NnError> {
+        let actions =
+            self.joint_of(|g, group| Ok(squash(group.nets.actors.valid().forward(b.groups[g].x_now.clone()), group)))?;
+        Ok(BatchTensors { actions, ..b.clone() })
     }
 
     /// Targets move towards the online networks (eq. 9).
     pub(crate) fn soft_update_targets(&mut self, polyak: f64, actors: bool) {
         let p = polyak as f32;
-        for a in &mut self.agents {
+        for group in &mut self.groups {
+            let nets = &mut group.nets;
             if actors {
-                a.actor_target.soft_update(&a.actor, p);
+                nets.actor_targets.soft_update(&nets.actors, p);
             }
-            for (t, o) in a.critic_targets.nets.iter_mut().zip(&a.critics.nets) {
+            for (t, o) in nets.critic_targets.nets.iter_mut().zip(&nets.critics.nets) {
                 t.soft_update(o, p);
             }
         }
     }
 
-    /// Agent `i`'s actor trunk, flattened (what sharing mixes), for inspection.
+    /// Agent `agent`'s actor trunk, flattened (what sharing mixes), for inspection.
     pub(crate) fn actor_trunk(&self, agent: usize) -> Result<Vec<f32>, NnError> {
-        let a = self.agent(agent)?;
-        let mut out = Vec::new();
-        crate::net::flatten(&a.actor.trunk.iter().collect::<Vec<_>>(), &mut out)?;
-        Ok(out)
+        let (g, k) = self.locate(agent)?;
+        let group = &self.groups[g];
+        let flats = group.nets.actors.to_flats(&group.actor_layout)?;
+        Ok(flats[k][group.actor_layout.shapes[k].trunk()].to_vec())
     }
 
     /// Replaces agent `agent`'s actor trunk.
     pub(crate) fn set_actor_trunk(&mut self, agent: usize, trunk: &[f32]) -> Result<(), NnError> {
-        let na = self.agents.len();
-        let a = self.agents.get_mut(agent).ok_or(NnError::UnknownAgent { agent, agents: na })?;
-        let shape = a.actor.shape();
-        let range = shape.trunk();
+        let (g, k) = self.locate(agent)?;
+        let group = &mut self.groups[g];
+        let range = group.actor_layout.shapes[k].trunk();
         check_values(|| format!("actor trunk of agent {agent}"), trunk, range.len())?;
-        let mut flat = a.actor.to_flat()?;
-        flat[range].copy_from_slice(trunk);
-        a.actor = a.actor.with_flat(&flat);
-        self.act_cache = None;
+        let mut flats = group.nets.actors.to_flats(&group.actor_layout)?;
+        flats[k][range].copy_from_slice(trunk);
+        group.nets.actors = Group::rebuild(&group.actor_layout, &flats, &group.nets.actors);
+        group.act_cache = None;
         Ok(())
     }
 
     /// All parameters of agent `agent`'s online actor and first critic.
     pub(crate) fn params(&self, agent: usize) -> Result<(Vec<f32>, Vec<f32>), NnError> {
-        let a = self.agent(agent)?;
-        Ok((a.actor.to_flat()?, a.critics.nets[0].to_flat()?))
+        let (g, k) = self.locate(agent)?;
+        let group = &self.groups[g];
+        let mut actors = group.nets.actors.to_flats(&group.actor_layout)?;
+        let mut critics = group.nets.critics.nets[0].to_flats(&group.critic_layout)?;
+        Ok((actors.swap_remove(k), critics.swap_remove(k)))
     }
 
     /// `Q_i(x, g, a)` of agent `agent`'s first online critic for raw rows.
@@ -731,7 +706,7 @@ impl Learner {
         actions: &[f32],
         n: usize,
     ) -> Result<Vec<f32>, NnError> {
-        let a = self.agent(agent)?;
+        let (g, k) = self.locate(agent)?;
         let spec = self.layout.spec();
         check_values(|| "q_values obs".into(), obs, n * spec.obs_dim)?;
         check_values(|| "q_values goals".into(), goals, n * spec.goal_dim)?;
@@ -751,35 +726,37 @@ impl Learner {
             input.extend_from_slice(&og[r * (od + gd)..(r + 1) * (od + gd)]);
             input.extend(self.perm.iter().map(|&s| actions[r * ad + s]));
         }
-        let critic = a.critics.nets[0].valid();
-        to_vec(critic.forward(matrix(input, n, od + gd + ad, &self.device)), "q values")
+        let x = matrix(input, n, od + gd + ad, &self.device).unsqueeze_dim::<3>(0);
+        let q = self.groups[g].nets.critics.nets[0].valid().forward(x).narrow(0, k, 1).reshape([n]);
+        to_vec1(q, "q values")
     }
 
     /// Agent `i`'s first critic's trunk, flattened.
     pub(crate) fn critic_trunk(&self, agent: usize) -> Result<Vec<f32>, NnError> {
-        let a = self.agent(agent)?;
-        let mut out = Vec::new();
-        let c = &a.critics.nets[0];
-        let trunk: Vec<&Linear> = c.hidden.iter().skip(1).collect();
-        crate::net::flatten(&trunk, &mut out)?;
-        Ok(out)
+        let (g, k) = self.locate(agent)?;
+        let group = &self.groups[g];
+        let flats = group.nets.critics.nets[0].to_flats(&group.critic_layout)?;
+        Ok(flats[k][group.critic_layout.shapes[k].trunk()].to_vec())
     }
-}
 
-/// The value of a one-element tensor.
-pub(crate) fn scalar(t: &Tensor<1>) -> Result<f32, NnError> {
-    let v = t
-        .clone()
-        .inner()
-        .into_data()
-        .try_into_vec::<f32>()
-        .map_err(|e| NnError::Backend { what: "loss", reason: format!("{e:?}") })?;
-    v.first().copied().ok_or(NnError::Backend { what: "loss", reason: "empty tensor".into() })
-}
-
-/// Reads a 2-d tensor back as a row-major vector.
-pub(crate) fn to_vec(t: Tensor<2>, what: &'static str) -> Result<Vec<f32>, NnError> {
-    t.inner().into_data().try_into_vec::<f32>().map_err(|e| NnError::Backend { what, reason: format!("{e:?}") })
+    /// Each group's normal noise `[A_g, n, d_max]` (zero in the padding),
+    /// drawn agent by agent, row by row from the learner's stream.
+    pub(crate) fn noise(&mut self, n: usize, sample: impl Fn(&mut ChaCha8Rng) -> f32) -> Vec<Tensor<3>> {
+        let mut out = Vec::with_capacity(self.groups.len());
+        for g in 0..self.groups.len() {
+            let (agents, dmax) = (self.groups[g].agents.clone(), self.groups[g].max_action());
+            let mut v = vec![0.0; agents.len() * n * dmax];
+            for (k, i) in agents.clone().enumerate() {
+                for r in 0..n {
+                    for c in 0..self.action_dim(i) {
+                        v[(k * n + r) * dmax + c] = sample(&mut self.rng);
+                    }
+                }
+            }
+            out.push(Tensor::from_data(TensorData::new(v, [agents.len(), n, dmax]), &self.device));
+        }
+        out
+    }
 }
 
 /// A row-major `rows x cols` matrix as a tensor on `device`.

@@ -7,17 +7,20 @@
 //! (`replay.batches` gradient steps per cycle), its target networks and its
 //! save/restore. They share one machinery:
 //!
-//! - per agent an [`Actor`] (own input layer -> trunk of equal shape -> own
-//!   head) and one or two [`Critic`]s that see the global observation, the goal
-//!   and every agent's action (MADDPG / MAGCLA); burn modules built once with
-//!   [`ActorConfig::init`] / [`CriticConfig::init`] that live on the device
-//!   across updates, optimised by burn's Adam with its state on the device;
+//! - per agent an actor (own input layer -> trunk of equal shape -> own head)
+//!   and one or two critics that see the global observation, the goal and
+//!   every agent's action (MADDPG / MAGCLA); the networks of a group of agents
+//!   are one [`StackedMlp`] whose layers are `[agents, in, out]` tensors, one
+//!   batched matmul per layer ([`Stacking`]: every agent in one group on a
+//!   GPU, one group per agent on worker threads on the CPU), built once with
+//!   [`StackedMlpConfig::init`], living on the device across updates and
+//!   optimised by burn's Adam with its state on the device;
 //! - running input normalisers (HER baselines), updated from each batch;
 //! - critic targets clipped to the reward bounds over `1 - gamma` (`clip_return`);
 //! - information sharing (eq. 8) through [`fmsr_core::sharing::InformationSharing`]:
 //!   `theta_i <- sum_j M[i][j] theta_j` over the trunks, on parameters after
-//!   the optimiser step (default) or on gradients before it, computed with
-//!   tensor operations on the device;
+//!   the optimiser step (default) or on gradients before it, one matmul of `M`
+//!   with each stacked trunk tensor on the device;
 //! - polyak targets `theta' <- polyak theta' + (1 - polyak) theta` (eq. 9), on the device;
 //! - gradients averaged over worker processes by a
 //!   [`fmsr_core::agent::Communicator`] (identity in one process).
@@ -28,15 +31,19 @@
 //! | [`Matd3`] | twin, min target | deterministic, delayed | as MADDPG, smoothed targets | [`matd3`] |
 //! | [`Masac`] | twin, min target | tanh-Gaussian | sampling; temperature tuned | [`masac`] |
 //!
-//! The agents' gradient computations run on [`NetworkConfig::threads`] OS
-//! threads; each agent's computation depends only on its own state, so
-//! results are bit-identical for any thread count.
+//! The groups' computations run on [`NetworkConfig::threads`] OS threads;
+//! each group's computation depends only on its own state, so results are
+//! bit-identical for any thread count. With one group the kernels of a joint
+//! update do not depend on the number of agents. Rollouts act on a host copy
+//! of the actors (burn's `flex`), refreshed after each update phase, so an
+//! environment step never waits for the device.
 //!
 //! # Backends
 //!
 //! burn 0.22 chooses the backend by the device: [`LearnerParts::new`] uses
 //! `Device::flex()` (pure-Rust CPU); [`LearnerParts::with_device`] takes any
-//! burn device compiled in. Gradients are taken on the device's `.autodiff()`
+//! burn device compiled in, such as the GPUs of the `wgpu` and `vulkan`
+//! features, named by the strings of [`DeviceSpec`] ([`device`]). Gradients are taken on the device's `.autodiff()`
 //! twin; acting and the target networks run on the plain device.
 //!
 //! # Example
@@ -61,8 +68,10 @@
 
 mod any;
 mod config;
+pub mod device;
 mod error;
 mod explore;
+mod group;
 mod learner;
 pub mod maddpg;
 pub mod masac;
@@ -76,20 +85,21 @@ mod workers;
 pub use any::{AlgorithmKind, AnyLearner};
 /// burn's device type, re-exported for [`LearnerParts::with_device`] (e.g. `Device::flex()`).
 pub use burn::tensor::Device;
-pub use config::{MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, Teammates};
+pub use config::{MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, Stacking, Teammates};
+pub use device::{Adapter, DeviceSpec};
 pub use error::NnError;
 pub use learner::LearnerParts;
 pub use maddpg::{Maddpg, StepLosses};
 pub use masac::Masac;
 pub use matd3::Matd3;
-pub use net::{Actor, ActorConfig, Critic, CriticConfig, Critics, NetShape};
+pub use net::{Critics, NetShape, StackLayout, StackedLinear, StackedMlp, StackedMlpConfig};
 pub use normalizer::Normalizer;
 
 /// Everything needed for typical use: `use fmsr_nn::prelude::*;`.
 pub mod prelude {
     pub use crate::{
-        Actor, ActorConfig, AlgorithmKind, AnyLearner, Critic, CriticConfig, Device, LearnerParts, Maddpg,
-        MaddpgConfig, Masac, MasacConfig, Matd3, Matd3Config, NetShape, NetworkConfig, NnError, Normalizer,
+        AlgorithmKind, AnyLearner, Device, DeviceSpec, LearnerParts, Maddpg, MaddpgConfig, Masac, MasacConfig, Matd3,
+        Matd3Config, NetShape, NetworkConfig, NnError, Normalizer, StackedMlp, StackedMlpConfig, Stacking,
     };
     pub use fmsr_core::algorithm::Algorithm;
     pub use fmsr_core::policy::{ActMode, Policy};

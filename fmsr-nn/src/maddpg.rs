@@ -154,14 +154,17 @@ impl Maddpg {
     }
 }
 
-/// `tanh(mu'_j(o'_j))` of every agent's target actor, agent-major.
+/// `tanh(mu'_j(o'_j))` of every agent's target actor, agent-major `[n, action_dim]`.
 pub(crate) fn target_actions(l: &mut Learner, b: &BatchTensors) -> Result<Tensor<2>, NnError> {
-    let next = l.per_agent(|j, a| Ok(tanh(a.actor_target.forward(b.x_next[j].clone()))))?;
-    Ok(Tensor::cat(next, 1))
+    l.joint_of(|g, group| Ok(tanh(group.nets.actor_targets.forward(b.groups[g].x_next.clone()))))
 }
 
 /// The deterministic policy-gradient step of MADDPG and MATD3 (eq. 5 with
-/// HER's action penalty), on agent `i`'s first critic.
+/// HER's action penalty), on each agent's first critic, a group's agents at once:
+///
+/// ```text
+/// L_i = -mean Q_i1(x, g, a_1..mu_i(o_i)..a_N) + action_l2 * mean mu_i(o_i)^2
+/// ```
 pub(crate) fn actor_step(
     l: &mut Learner,
     b: &BatchTensors,
@@ -176,11 +179,13 @@ pub(crate) fn actor_step(
             &current
         }
     };
-    let joint = l.joint();
-    l.actor_step(b, |i, actor, critics, b| {
-        let mu = tanh(actor.forward(Tensor::from_inner(b.x_now[i].clone())));
-        let q = critics.nets[0].forward(joint.with(i, mu.clone(), b));
-        Ok(q.mean().neg() + mu.square().mean().mul_scalar(action_l2 as f32))
+    l.actor_step(|g, group, critics| {
+        let (joint, na) = (&group.joint, group.len());
+        let mu = tanh(group.nets.actors.forward(Tensor::from_inner(b.groups[g].x_now.clone())))
+            * Tensor::from_inner(joint.mask.clone());
+        let q = critics.nets[0].forward(joint.with_own(mu.clone(), &b.og, &b.actions));
+        let penalty = mu.square().sum_dim(2).mean_dim(1).reshape([na]) * Tensor::from_inner(joint.inv_dim.clone());
+        Ok(q.mean_dim(1).reshape([na]).neg() + penalty.mul_scalar(action_l2 as f32))
     })
 }
 

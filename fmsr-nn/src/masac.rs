@@ -20,7 +20,7 @@ use std::sync::Mutex;
 
 use burn::module::Module;
 use burn::tensor::activation::softplus;
-use burn::tensor::{Device, Tensor};
+use burn::tensor::{Tensor, TensorData};
 use fmsr_core::algorithm::{Algorithm, RewardModel, UpdateStats};
 use fmsr_core::policy::{ActMode, Policy, PolicyOutput};
 use fmsr_core::replay::Episode;
@@ -29,9 +29,9 @@ use serde::{Deserialize, Serialize};
 use crate::config::{MasacConfig, Teammates};
 use crate::error::NnError;
 use crate::explore::{gaussian, randomize};
-use crate::learner::{Learner, LearnerParts, matrix, scalar};
+use crate::group::to_vec1;
+use crate::learner::{Learner, LearnerParts};
 use crate::maddpg::{StepLosses, run_cycle};
-use crate::net::Actor;
 
 const HALF_LOG_TAU: f32 = 0.918_938_5; // log(2 pi) / 2
 
@@ -63,17 +63,20 @@ pub struct Masac {
     alpha_adam: Vec<ScalarAdam>,
 }
 
-/// A reparameterised sample `a = tanh(m + exp(s) eps)` and `log pi(a)` (`n x 1`).
-fn sample(head: Tensor<2>, eps: Tensor<2>, dim: usize, bounds: (f32, f32)) -> (Tensor<2>, Tensor<2>) {
-    let mean = head.clone().narrow(1, 0, dim);
-    let log_std = head.narrow(1, dim, dim).clamp(bounds.0, bounds.1);
+/// A reparameterised sample `a = tanh(m + exp(s) eps)` of every agent,
+/// `[A, n, d_max]` (zero in the padding), and `log pi(a)`, `[A, n, 1]`; `head`
+/// is `[A, n, 2 d_max]` (means, then log-stds), `mask` `[A, 1, d_max]`.
+fn sample(head: Tensor<3>, eps: Tensor<3>, mask: Tensor<3>, bounds: (f32, f32)) -> (Tensor<3>, Tensor<3>) {
+    let dim = eps.dims()[2];
+    let mean = head.clone().narrow(2, 0, dim);
+    let log_std = head.narrow(2, dim, dim).clamp(bounds.0, bounds.1);
     let u = mean + log_std.clone().exp() * eps.clone();
-    let a = u.clone().tanh();
+    let a = u.clone().tanh() * mask.clone();
     // log(1 - tanh(u)^2) = 2 (log 2 - u - softplus(-2u)), stable for large |u|.
     let log_jac =
         (u.clone().neg().sub_scalar(-std::f32::consts::LN_2) - softplus(u.mul_scalar(-2.0), 1.0)).mul_scalar(2.0);
     let log_prob = (eps.square().mul_scalar(-0.5) - log_std).sub_scalar(HALF_LOG_TAU) - log_jac;
-    (a, log_prob.sum_dim(1))
+    (a, (log_prob * mask).sum_dim(2))
 }
 
 impl Masac {
@@ -109,11 +112,6 @@ impl Masac {
         (self.config.log_std_min as f32, self.config.log_std_max as f32)
     }
 
-    fn noise(&mut self, n: usize, dim: usize, device: &Device) -> Tensor<2> {
-        let v = (0..n * dim).map(|_| gaussian(&mut self.learner.rng)).collect();
-        matrix(v, n, dim, device)
-    }
-
     /// One step of every agent's critics, actor and temperature; `None` while the replay is empty.
     ///
     /// # Errors
@@ -121,48 +119,57 @@ impl Masac {
     pub fn step(&mut self, rewards: &dyn RewardModel) -> Result<Option<StepLosses>, NnError> {
         let Some(b) = self.learner.sample(rewards)? else { return Ok(None) };
         let (n, na, bounds) = (b.n, self.learner.num_agents(), self.bounds());
-        let device = self.learner.device.clone();
+        let l = &mut self.learner;
+        let device = l.device.clone();
+        let alphas: Vec<f32> = self.log_alpha.iter().map(|v| v.exp() as f32).collect();
+        let alpha: Vec<Tensor<3>> = l
+            .groups
+            .iter()
+            .map(|g| Tensor::from_data(TensorData::new(alphas[g.agents.clone()].to_vec(), [g.len(), 1, 1]), &device))
+            .collect();
         // Next actions from the current actors, with their log-probabilities.
-        let eps_next: Vec<Tensor<2>> = (0..na).map(|i| self.noise(n, self.learner.action_dim(i), &device)).collect();
-        let alphas: Vec<f32> = self.log_alpha.iter().map(|l| l.exp() as f32).collect();
-        let next = self.learner.per_agent(|i, a| {
-            let head = a.actor.valid().forward(b.x_next[i].clone());
-            Ok(sample(head, eps_next[i].clone(), eps_next[i].dims()[1], bounds))
+        let eps_next = l.noise(n, gaussian);
+        let next = l.per_group(|g, group| {
+            let head = group.nets.actors.valid().forward(b.groups[g].x_next.clone());
+            let (a, lp) = sample(head, eps_next[g].clone(), group.joint.mask.clone(), bounds);
+            Ok((group.joint.join(a), lp * alpha[g].clone()))
         })?;
-        let (next, next_logp): (Vec<Tensor<2>>, Vec<Tensor<2>>) = next.into_iter().unzip();
-        let soft = next_logp.into_iter().zip(&alphas).map(|(lp, &al)| lp.mul_scalar(al)).collect();
-        let critic = self.learner.critic_step(&b, Tensor::cat(next, 1), Some(soft))?;
+        let (joint, soft): (Vec<Tensor<2>>, Vec<Tensor<3>>) = next.into_iter().unzip();
+        let joint = joint
+            .into_iter()
+            .reduce(|a, b| a + b)
+            .ok_or(NnError::Backend { what: "next actions", reason: "no group".into() })?;
+        let critic = l.critic_step(&b, joint, Some(soft))?;
         // Actor step on fresh samples; the batch means of log pi feed the temperature.
-        let eps: Vec<Tensor<2>> =
-            (0..na).map(|i| Tensor::from_inner(self.noise(n, self.learner.action_dim(i), &device))).collect();
-        let dims: Vec<usize> = (0..na).map(|i| self.learner.action_dim(i)).collect();
-        let mean_logp = Mutex::new(vec![0.0f32; na]);
-        let joint = self.learner.joint();
+        let eps = l.noise(n, gaussian);
         let current;
         let b = match self.config.teammates {
             Teammates::Replay => &b,
             Teammates::Current => {
-                current = self.learner.with_current_actions(&b, |head, j| head.narrow(1, 0, dims[j]).tanh())?;
+                current = l.with_current_actions(&b, |head, group| head.narrow(2, 0, group.max_action()).tanh())?;
                 &current
             }
         };
-        let actor = self.learner.actor_step(b, |i, actor: &Actor, critics, b| {
-            let head = actor.forward(Tensor::from_inner(b.x_now[i].clone()));
-            let (a, lp) = sample(head, eps[i].clone(), dims[i], bounds);
-            let input = joint.with(i, a, b);
+        let mean_logp = Mutex::new(vec![0.0f32; na]);
+        let actor = l.actor_step(|g, group, critics| {
+            let head = group.nets.actors.forward(Tensor::from_inner(b.groups[g].x_now.clone()));
+            let mask = Tensor::from_inner(group.joint.mask.clone());
+            let (a, lp) = sample(head, Tensor::from_inner(eps[g].clone()), mask, bounds);
+            let input = group.joint.with_own(a, &b.og, &b.actions);
             let q = critics.nets[0].forward(input.clone()).min_pair(critics.nets[1].forward(input));
-            let m = scalar(&lp.clone().mean())?;
+            let m = to_vec1(lp.clone().mean_dim(1).reshape([group.len()]), "log pi")?;
             if let Ok(mut v) = mean_logp.lock() {
-                v[i] = m;
+                v[group.agents.clone()].copy_from_slice(&m);
             }
-            Ok((lp.mul_scalar(alphas[i]) - q).mean())
+            Ok((lp * Tensor::from_inner(alpha[g].clone()) - q).mean_dim(1).reshape([group.len()]))
         })?;
         let mut mean_logp =
             mean_logp.into_inner().map_err(|_| NnError::Backend { what: "log pi", reason: "poisoned".into() })?;
         // Every worker tunes the same temperatures (the mean over all batches).
-        self.learner.comm.all_reduce_mean(&mut mean_logp);
+        l.comm.all_reduce_mean(&mut mean_logp);
+        let dims: Vec<usize> = (0..na).map(|i| l.action_dim(i)).collect();
+        l.steps += 1;
         self.update_temperatures(&mean_logp, &dims);
-        self.learner.steps += 1;
         Ok(Some(StepLosses { critic, actor: Some(actor) }))
     }
 

@@ -1,44 +1,55 @@
-//! Information sharing on the device: the consensus step of eq. 8 applied to
-//! the trunk layers of every agent's actor or critic, or to their gradients,
-//! with tensor operations on the networks' own device (no copy to the host).
+//! Information sharing on the device: the consensus step of eq. 8 as one
+//! contraction of the mixing matrix with the stacked trunk layers (or their
+//! gradients), with no copy to the host.
+//!
+//! For a trunk layer of all `A` agents, `W: [A, in, out]` (the agent groups'
+//! stacks concatenated in agent order when there are several), flattened to
+//! `[A, in * out]`:
 //!
 //! ```text
-//! W_i <- sum_j M[i][j] W_j,   b_i <- sum_j M[i][j] b_j      for every trunk layer
+//! W_i <- sum_j M[i][j] W_j   for all i at once:   W <- M W     (eq. 8)
 //! ```
+//!
+//! and the same for the biases: one matmul per parameter tensor whatever the
+//! number of agents.
 
 use burn::module::{Param, ParamId};
-use burn::nn::Linear;
 use burn::optim::GradientsParams;
-use burn::tensor::{Tensor, TensorData};
+use burn::tensor::{Device, Tensor, TensorData};
 use fmsr_core::agent::Communicator;
-use fmsr_core::sharing::{NetworkGroup, SharedParameters};
 use fmsr_graph::MixingMatrix;
 
 use crate::error::NnError;
-use crate::learner::AgentNets;
+use crate::net::{StackedMlp, leaf};
 
-/// `sum_j M[i][j] x_j` for every `i`, on the tensors' device.
-fn mix_tensors<const D: usize>(xs: &[Tensor<D>], m: &MixingMatrix) -> Vec<Tensor<D>> {
-    (0..xs.len())
-        .map(|i| {
-            let mut acc: Option<Tensor<D>> = None;
-            for (j, x) in xs.iter().enumerate() {
-                let w = m.get(i, j).unwrap_or(0.0);
-                if w == 0.0 {
-                    continue;
-                }
-                let term = x.clone().mul_scalar(w as f32);
-                acc = Some(match acc {
-                    Some(a) => a + term,
-                    None => term,
-                });
-            }
-            acc.unwrap_or_else(|| xs[i].clone().zeros_like())
+/// `M` as an `[A, A]` tensor on `device`.
+fn matrix(m: &MixingMatrix, device: &Device) -> Tensor<2> {
+    let n = m.n();
+    let values = (0..n).flat_map(|i| (0..n).map(move |j| m.get(i, j).unwrap_or(0.0) as f32)).collect::<Vec<_>>();
+    Tensor::from_data(TensorData::new(values, [n, n]), device)
+}
+
+/// `M x` over the agent axis of the parts `xs[g]: [A_g, r, c]`, split back into the parts.
+fn mix_parts(xs: Vec<Tensor<3>>, m: &Tensor<2>) -> Vec<Tensor<3>> {
+    let sizes: Vec<usize> = xs.iter().map(|x| x.dims()[0]).collect();
+    let x = if xs.len() == 1 { xs.into_iter().next().expect("one part") } else { Tensor::cat(xs, 0) };
+    let [a, r, c] = x.dims();
+    let mixed = m.clone().matmul(x.reshape([a, r * c])).reshape([a, r, c]);
+    if sizes.len() == 1 {
+        return vec![mixed];
+    }
+    let mut at = 0;
+    sizes
+        .into_iter()
+        .map(|s| {
+            let part = mixed.clone().narrow(0, at, s);
+            at += s;
+            part
         })
         .collect()
 }
 
-fn check(n: usize, m: &MixingMatrix, what: &'static str) -> Result<(), NnError> {
+fn check(n: usize, m: &MixingMatrix, what: &str) -> Result<(), NnError> {
     if m.n() != n {
         return Err(NnError::Sharing {
             reason: format!("{what}: the mixing matrix has {} nodes, there are {n} agents", m.n()),
@@ -47,131 +58,69 @@ fn check(n: usize, m: &MixingMatrix, what: &'static str) -> Result<(), NnError> 
     Ok(())
 }
 
-/// Mixes the parameters of the trunks `trunks[i]` (agent `i`'s hidden -> hidden
-/// layers, all of the same shapes): each becomes a new leaf with the same id.
-pub(crate) fn mix_layers(trunks: &mut [&mut [Linear]], m: &MixingMatrix) -> Result<(), NnError> {
-    check(trunks.len(), m, "trunk parameters")?;
-    let Some(depth) = trunks.first().map(|t| t.len()) else { return Ok(()) };
-    if trunks.iter().any(|t| t.len() != depth) {
-        return Err(NnError::Sharing { reason: "the agents' trunks have different depths".into() });
-    }
-    for l in 0..depth {
-        let ws: Vec<Tensor<2>> = trunks.iter().map(|t| t[l].weight.val().detach()).collect();
-        for (t, w) in trunks.iter_mut().zip(mix_tensors(&ws, m)) {
-            t[l].weight = crate::net::leaf(t[l].weight.id, w.detach());
-        }
-        let bs: Option<Vec<Tensor<1>>> = trunks.iter().map(|t| t[l].bias.as_ref().map(|b| b.val().detach())).collect();
-        if let Some(bs) = bs {
-            for (t, b) in trunks.iter_mut().zip(mix_tensors(&bs, m)) {
-                let id = t[l].bias.as_ref().map_or_else(ParamId::new, |p| p.id);
-                t[l].bias = Some(crate::net::leaf(id, b.detach()));
+/// Mixes the trunk parameters of `stacks` (one per agent group, in agent
+/// order); every trunk parameter becomes a new leaf with the same id.
+pub(crate) fn mix_stacks(mut stacks: Vec<&mut StackedMlp>, m: &MixingMatrix) -> Result<(), NnError> {
+    let Some(first) = stacks.first() else { return Ok(()) };
+    let agents: usize = stacks.iter().map(|s| s.layers[0].weight.val().dims()[0]).sum();
+    check(agents, m, "trunk parameters")?;
+    let mt = matrix(m, &first.layers[0].weight.val().inner().device());
+    let depth = first.layers.len().saturating_sub(2);
+    for l in 1..=depth {
+        for weight in [true, false] {
+            let param = |s: &StackedMlp| -> Param<Tensor<3>> {
+                if weight { s.layers[l].weight.clone() } else { s.layers[l].bias.clone() }
+            };
+            let parts = stacks.iter().map(|s| param(s).val().inner()).collect();
+            for (s, mixed) in stacks.iter_mut().zip(mix_parts(parts, &mt)) {
+                let id = param(s).id;
+                let new = leaf(id, Tensor::from_inner(mixed));
+                if weight { s.layers[l].weight = new } else { s.layers[l].bias = new }
             }
         }
     }
     Ok(())
 }
 
-/// The ids of the weight and bias of every layer of `trunk`, in order.
-pub(crate) fn trunk_ids(trunk: &[Linear]) -> Vec<(ParamId, Option<ParamId>)> {
-    trunk.iter().map(|l| (l.weight.id, l.bias.as_ref().map(|b: &Param<Tensor<1>>| b.id))).collect()
-}
-
-/// Mixes the gradients of the trunk parameters `ids[i]` held by `grads[i]`.
+/// Mixes the gradients of the trunk parameters `ids[g]` held by `grads[g]`
+/// (one per agent group, in agent order; the same layers in the same order).
 pub(crate) fn mix_gradients(
     grads: &mut [GradientsParams],
-    ids: &[Vec<(ParamId, Option<ParamId>)>],
+    ids: &[Vec<(ParamId, ParamId)>],
+    agents: usize,
     m: &MixingMatrix,
+    device: &Device,
 ) -> Result<(), NnError> {
-    check(grads.len(), m, "trunk gradients")?;
-    let Some(depth) = ids.first().map(Vec::len) else { return Ok(()) };
+    check(agents, m, "trunk gradients")?;
+    let mt = matrix(m, device);
+    let depth = ids.first().map_or(0, Vec::len);
     for l in 0..depth {
-        mix_grad::<2>(grads, &ids.iter().map(|v| v[l].0).collect::<Vec<_>>(), m)?;
-        if let Some(bias) = ids.iter().map(|v| v[l].1).collect::<Option<Vec<_>>>() {
-            mix_grad::<1>(grads, &bias, m)?;
+        for weight in [true, false] {
+            // The parameter of layer `l` in every group, in agent order.
+            let layer: Vec<ParamId> = ids.iter().map(|v| if weight { v[l].0 } else { v[l].1 }).collect();
+            let parts = grads
+                .iter_mut()
+                .zip(&layer)
+                .map(|(g, &id)| {
+                    g.remove::<3>(id).ok_or(NnError::Sharing { reason: "a trunk parameter has no gradient".into() })
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            for ((g, &id), mixed) in grads.iter_mut().zip(&layer).zip(mix_parts(parts, &mt)) {
+                g.register::<3>(id, mixed);
+            }
         }
     }
     Ok(())
 }
 
-fn mix_grad<const D: usize>(grads: &mut [GradientsParams], ids: &[ParamId], m: &MixingMatrix) -> Result<(), NnError> {
-    let gs: Vec<Tensor<D>> = grads
-        .iter()
-        .zip(ids)
-        .map(|(g, &id)| g.get::<D>(id).ok_or(NnError::Sharing { reason: "a trunk parameter has no gradient".into() }))
-        .collect::<Result<_, _>>()?;
-    for ((g, &id), mixed) in grads.iter_mut().zip(ids).zip(mix_tensors(&gs, m)) {
-        g.register(id, mixed);
-    }
-    Ok(())
-}
-
-/// The trunk parameter ids of agent `a`'s networks of `group` (every critic's).
-pub(crate) fn group_trunk_ids(
-    a: &AgentNets,
-    group: NetworkGroup,
-) -> Vec<(burn::module::ParamId, Option<burn::module::ParamId>)> {
-    match group {
-        NetworkGroup::Actors => trunk_ids(&a.actor.trunk),
-        NetworkGroup::Critics => {
-            a.critics.nets.iter().flat_map(|c| trunk_ids(c.hidden.get(1..).unwrap_or(&[]))).collect()
-        }
-    }
-}
-
-/// Every agent's gradients of one group, as information sharing sees them.
-pub(crate) struct GradHolder<'a> {
-    pub(crate) grads: &'a mut [GradientsParams],
-    pub(crate) ids: &'a [Vec<(burn::module::ParamId, Option<burn::module::ParamId>)>],
-}
-
-impl SharedParameters for GradHolder<'_> {
-    type Error = NnError;
-
-    fn consensus_step(&mut self, _: NetworkGroup, mixing: &fmsr_graph::MixingMatrix) -> Result<(), NnError> {
-        mix_gradients(self.grads, self.ids, mixing)
-    }
-}
-
-/// Every agent's networks, as information sharing sees them.
-pub(crate) struct ParamHolder<'a> {
-    pub(crate) agents: &'a mut [AgentNets],
-}
-
-impl SharedParameters for ParamHolder<'_> {
-    type Error = NnError;
-
-    fn consensus_step(&mut self, group: NetworkGroup, mixing: &fmsr_graph::MixingMatrix) -> Result<(), NnError> {
-        match group {
-            NetworkGroup::Actors => {
-                let mut trunks: Vec<&mut [Linear]> =
-                    self.agents.iter_mut().map(|a| a.actor.trunk.as_mut_slice()).collect();
-                mix_layers(&mut trunks, mixing)
-            }
-            NetworkGroup::Critics => {
-                let k = self.agents.first().map_or(0, |a| a.critics.nets.len());
-                for c in 0..k {
-                    let mut trunks: Vec<&mut [Linear]> =
-                        self.agents.iter_mut().map(|a| a.critics.nets[c].trunk_mut()).collect();
-                    mix_layers(&mut trunks, mixing)?;
-                }
-                Ok(())
-            }
-        }
-    }
-}
-
-/// Averages every gradient of `layers` held by `grads` over the workers (on the host).
+/// Averages every gradient `ids` held by `grads` over the workers (on the host).
 pub(crate) fn all_reduce(
     grads: &mut GradientsParams,
-    layers: &[&Linear],
+    ids: &[(ParamId, ParamId)],
     comm: &dyn Communicator,
 ) -> Result<(), NnError> {
-    fn one<const D: usize>(
-        grads: &mut GradientsParams,
-        id: burn::module::ParamId,
-        comm: &dyn Communicator,
-    ) -> Result<(), NnError> {
-        if let Some(g) = grads.remove::<D>(id) {
+    for &id in ids.iter().flat_map(|(w, b)| [w, b]) {
+        if let Some(g) = grads.remove::<3>(id) {
             let device = g.device();
             let shape = g.shape();
             let mut v = g
@@ -179,15 +128,52 @@ pub(crate) fn all_reduce(
                 .try_into_vec::<f32>()
                 .map_err(|e| NnError::Backend { what: "gradient", reason: format!("{e:?}") })?;
             comm.all_reduce_mean(&mut v);
-            grads.register::<D>(id, Tensor::from_data(TensorData::new(v, shape), &device));
-        }
-        Ok(())
-    }
-    for l in layers {
-        one::<2>(grads, l.weight.id, comm)?;
-        if let Some(b) = &l.bias {
-            one::<1>(grads, b.id, comm)?;
+            grads.register::<3>(id, Tensor::from_data(TensorData::new(v, shape), &device));
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use fmsr_graph::{Graph, MetropolisHastings};
+    use proptest::prelude::*;
+
+    use super::*;
+    use crate::net::{StackLayout, StackedMlp};
+
+    fn stack(layout: &StackLayout, flats: &[Vec<f32>]) -> StackedMlp {
+        StackedMlp::from_flats(layout, flats, &Device::flex(), 0)
+    }
+
+    proptest! {
+        // Guards eq. 8 across agent groups: mixing the trunks of three
+        // single-agent stacks equals mixing one stack of the three, and keeps
+        // the agents' average trunk (M is doubly stochastic).
+        #[test]
+        fn mixing_does_not_depend_on_the_grouping(
+            flats in prop::collection::vec(prop::collection::vec(-1.0f32..1.0, 2 * 4 + 4 + 2 * (4 * 4 + 4) + 4 + 1), 3)
+        ) {
+            let m = MetropolisHastings::matrix(&Graph::ring(3));
+            let all = StackLayout::new(&[2; 3], 4, 3, &[1; 3], 1);
+            let one = StackLayout::new(&[2], 4, 3, &[1], 1);
+            let mut whole = stack(&all, &flats);
+            mix_stacks(vec![&mut whole], &m).unwrap();
+            let mut parts: Vec<StackedMlp> = flats.iter().map(|f| stack(&one, std::slice::from_ref(f))).collect();
+            mix_stacks(parts.iter_mut().collect(), &m).unwrap();
+            let whole = whole.to_flats(&all).unwrap();
+            let trunk = all.shapes[0].trunk();
+            for (i, p) in parts.iter().enumerate() {
+                let p = &p.to_flats(&one).unwrap()[0];
+                for (a, b) in p.iter().zip(&whole[i]) {
+                    prop_assert!((a - b).abs() <= 1e-6, "agent {i}: {a} against {b}");
+                }
+            }
+            for k in trunk {
+                let before: f32 = flats.iter().map(|f| f[k]).sum();
+                let after: f32 = whole.iter().map(|f| f[k]).sum();
+                prop_assert!((before - after).abs() <= 1e-5, "average moved at {k}");
+            }
+        }
+    }
 }

@@ -1,15 +1,36 @@
-//! The networks: burn modules that live across updates, built once by
-//! [`ActorConfig::init`] / [`CriticConfig::init`] on a device.
+//! The networks: every agent's actor (or critic) as one burn module whose
+//! layers hold all agents at once, built once by [`StackedMlpConfig::init`]
+//! on a device and living there across updates.
+//!
+//! Layer `k` of `A` agents is one weight `W_k: [A, in_k, out_k]` and one bias
+//! `b_k: [A, 1, out_k]`; for inputs `X: [A, n, in_k]` (or `[1, n, in_k]`,
+//! broadcast when all agents see the same input, as the critics do)
+//!
+//! ```text
+//! H_k = relu(H_{k-1} W_k + b_k)      one batched matmul for all agents
+//! ```
+//!
+//! so the kernels of a forward or backward pass, of an Adam step, of polyak
+//! averaging and of a consensus step do not grow with the number of agents.
+//!
+//! Agents whose actors differ in input or output width are padded to the
+//! widest: agent `i`'s input occupies the first `in_i` rows of the input
+//! layer (the other rows are zero, and stay zero: their inputs are zero, so
+//! their gradients are); its head's outputs occupy, for each of the
+//! `head_mult` output blocks (MASAC's mean and log-std), the first `d_i`
+//! columns of a block of `d_max`. Padded outputs are masked by the learner
+//! before they reach any loss, so their parameters receive no gradient
+//! either. Padding keeps one matmul per layer; grouping agents of equal shape
+//! would need one per group, and the Shadow Hand's six agents have five shapes.
 //!
 //! Weights are Glorot-uniform and biases zero (TensorFlow's dense default, as
-//! in HER baselines), drawn from a ChaCha8 stream per network, so learners are
-//! reproducible independently of burn's global RNG. Parameter ids are derived
-//! from the network's `id_base`, so a learner built again from the same config
-//! has the same ids, and optimiser records saved by one load into the other.
+//! in HER baselines), drawn per agent from a ChaCha8 stream in the agent's own
+//! [`NetShape`], so a network starts as the per-agent network of the same seed
+//! would. Parameter ids are derived from `id_base`, so a learner built again
+//! from the same config has the same ids and reads its optimiser records back.
 
 use burn::config::Config;
 use burn::module::{Module, Param, ParamId};
-use burn::nn::Linear;
 use burn::tensor::activation::relu;
 use burn::tensor::{Device, Tensor, TensorData};
 use rand::{Rng, SeedableRng};
@@ -18,10 +39,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::NnError;
 
-/// The layer sizes of a fully connected network, `(inputs, outputs)` per layer.
+/// The layer sizes of one agent's fully connected network, `(inputs, outputs)` per layer.
 ///
 /// Parameters are flattened layer by layer, each layer as its weight
-/// `[inputs, outputs]` (row major, burn's [`Linear`] layout) followed by its bias.
+/// `[inputs, outputs]` (row major) followed by its bias: the layout of saved
+/// states and of the per-agent accessors.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 pub struct NetShape {
     /// `(inputs, outputs)` of each linear layer, in order.
@@ -88,24 +110,113 @@ impl NetShape {
         }
         flat
     }
+}
 
-    /// The burn layers holding `flat` on `device`, with parameter ids
-    /// `id_base + 2k` (weight) and `id_base + 2k + 1` (bias) for layer `k`.
-    /// On an autodiff device the parameters require gradients.
-    pub(crate) fn linears(&self, flat: &[f32], device: &Device, id_base: u64) -> Vec<Linear> {
-        let mut at = 0;
-        self.layers
+/// Where each agent's network sits in a stack: the agents' own shapes, the
+/// padded shape of the stack, and the stack column of each head output.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StackLayout {
+    /// Each agent's own layer sizes.
+    pub shapes: Vec<NetShape>,
+    /// The stack's layer sizes (each the widest over the agents).
+    pub stacked: NetShape,
+    /// `head_cols[i][c]`: the stack column of agent `i`'s head output `c`.
+    pub head_cols: Vec<Vec<usize>>,
+}
+
+impl StackLayout {
+    /// Agents with inputs `inputs[i]` and `head_mult` output blocks of
+    /// `outputs[i]` each, `layers` hidden layers of `hidden`.
+    ///
+    /// ```
+    /// use fmsr_nn::StackLayout;
+    /// let s = StackLayout::new(&[3, 5], 8, 2, &[1, 2], 2);
+    /// assert_eq!(s.stacked.layers, vec![(5, 8), (8, 8), (8, 4)]);
+    /// // agent 0: mean in column 0, log-std in column 2 (blocks of 2).
+    /// assert_eq!(s.head_cols, vec![vec![0, 2], vec![0, 1, 2, 3]]);
+    /// ```
+    #[must_use]
+    pub fn new(inputs: &[usize], hidden: usize, layers: usize, outputs: &[usize], head_mult: usize) -> Self {
+        let max_in = inputs.iter().copied().max().unwrap_or(0);
+        let max_out = outputs.iter().copied().max().unwrap_or(0);
+        let shapes =
+            inputs.iter().zip(outputs).map(|(&i, &o)| NetShape::mlp(i, hidden, layers, head_mult * o)).collect();
+        let head_cols = outputs
+            .iter()
+            .map(|&d| (0..head_mult).flat_map(|j| (0..d).map(move |k| j * max_out + k)).collect())
+            .collect();
+        Self { shapes, stacked: NetShape::mlp(max_in, hidden, layers, head_mult * max_out), head_cols }
+    }
+
+    /// Number of agents.
+    #[must_use]
+    pub fn agents(&self) -> usize {
+        self.shapes.len()
+    }
+
+    /// Each layer of the stack as host data `(weight [A, in, out], bias [A, 1, out])`
+    /// holding every agent's flat parameters (padding zero).
+    fn pack(&self, flats: &[Vec<f32>]) -> Vec<(Vec<f32>, Vec<f32>)> {
+        let a = self.agents();
+        let last = self.stacked.layers.len() - 1;
+        self.stacked
+            .layers
             .iter()
             .enumerate()
-            .map(|(k, &(i, o))| {
-                let w = Tensor::<2>::from_data(TensorData::new(flat[at..at + i * o].to_vec(), [i, o]), device);
-                at += i * o;
-                let b = Tensor::<1>::from_data(TensorData::new(flat[at..at + o].to_vec(), [o]), device);
-                at += o;
-                let id = id_base + 2 * k as u64;
-                Linear { weight: leaf(ParamId::from(id), w), bias: Some(leaf(ParamId::from(id + 1), b)) }
+            .map(|(k, &(si, so))| {
+                let (mut w, mut b) = (vec![0.0; a * si * so], vec![0.0; a * so]);
+                for (i, (shape, flat)) in self.shapes.iter().zip(flats).enumerate() {
+                    let (ni, no) = shape.layers[k];
+                    let at = shape.offset(k);
+                    for c in 0..no {
+                        let col = if k == last { self.head_cols[i][c] } else { c };
+                        for r in 0..ni {
+                            w[(i * si + r) * so + col] = flat[at + r * no + c];
+                        }
+                        b[i * so + col] = flat[at + ni * no + c];
+                    }
+                }
+                (w, b)
             })
             .collect()
+    }
+
+    /// The inverse of [`StackLayout::pack`]: every agent's flat parameters.
+    fn unpack(&self, layers: &[(Vec<f32>, Vec<f32>)]) -> Vec<Vec<f32>> {
+        let last = self.stacked.layers.len() - 1;
+        self.shapes
+            .iter()
+            .enumerate()
+            .map(|(i, shape)| {
+                let mut flat = Vec::with_capacity(shape.num_params());
+                for (k, ((w, b), &(si, so))) in layers.iter().zip(&self.stacked.layers).enumerate() {
+                    let (ni, no) = shape.layers[k];
+                    let col = |c: usize| if k == last { self.head_cols[i][c] } else { c };
+                    for r in 0..ni {
+                        flat.extend((0..no).map(|c| w[(i * si + r) * so + col(c)]));
+                    }
+                    flat.extend((0..no).map(|c| b[i * so + col(c)]));
+                }
+                flat
+            })
+            .collect()
+    }
+}
+
+/// `A` dense layers of equal shape, one per agent: `y_a = x_a W_a + b_a` with
+/// `W: [A, in, out]` and `b: [A, 1, out]`, one batched matmul for all agents.
+#[derive(Module, Debug)]
+pub struct StackedLinear {
+    /// `[agents, inputs, outputs]`.
+    pub weight: Param<Tensor<3>>,
+    /// `[agents, 1, outputs]`.
+    pub bias: Param<Tensor<3>>,
+}
+
+impl StackedLinear {
+    /// `[A or 1, n, in] -> [A, n, out]`.
+    pub fn forward(&self, x: Tensor<3>) -> Tensor<3> {
+        x.matmul(self.weight.val()) + self.bias.val()
     }
 }
 
@@ -115,274 +226,262 @@ pub(crate) fn leaf<const D: usize>(id: ParamId, t: Tensor<D>) -> Param<Tensor<D>
     Param::initialized(id, t)
 }
 
-/// Reads `layers` back into one flat vector (the [`NetShape`] layout).
-pub(crate) fn flatten(layers: &[&Linear], out: &mut Vec<f32>) -> Result<(), NnError> {
-    for layer in layers {
-        out.extend(read(layer.weight.val().inner().into_data(), "weights")?);
-        if let Some(b) = &layer.bias {
-            out.extend(read(b.val().inner().into_data(), "biases")?);
+/// Builds a [`StackedMlp`] of agents with inputs `inputs[i]` and heads of
+/// `head_mult * outputs[i]`, agent `i` initialised from `seed` on ChaCha8
+/// stream `streams[i]`.
+///
+/// ```
+/// use fmsr_nn::{Device, StackedMlpConfig};
+/// let config = StackedMlpConfig::new(vec![5, 3], 16, 3, vec![2, 1]).with_streams(vec![0, 8]);
+/// let actors = config.init(&Device::flex())?;
+/// assert_eq!(actors.layers.len(), 4);
+/// assert_eq!(actors.layers[0].weight.val().dims(), [2, 5, 16]);
+/// # Ok::<(), fmsr_nn::NnError>(())
+/// ```
+#[derive(Config, Debug, PartialEq)]
+pub struct StackedMlpConfig {
+    /// Each agent's input width.
+    pub inputs: Vec<usize>,
+    /// Width of every hidden layer.
+    pub hidden: usize,
+    /// Number of hidden layers (>= 1).
+    pub layers: usize,
+    /// Each agent's output width (per output block).
+    pub outputs: Vec<usize>,
+    /// Output blocks of each head (2 for MASAC's mean and log-std).
+    #[config(default = 1)]
+    pub head_mult: usize,
+    /// Seed of the weight initialisation.
+    #[config(default = 0)]
+    pub seed: u64,
+    /// ChaCha8 stream of each agent (default `0, 1, 2, ...`).
+    #[config(default = "Vec::new()")]
+    pub streams: Vec<u64>,
+    /// First parameter id: layer `k` has ids `id_base + 2k` (weight) and `+ 1` (bias).
+    #[config(default = 0)]
+    pub id_base: u64,
+}
+
+impl StackedMlpConfig {
+    /// Where each agent sits in the stack.
+    #[must_use]
+    pub fn layout(&self) -> StackLayout {
+        StackLayout::new(&self.inputs, self.hidden, self.layers, &self.outputs, self.head_mult)
+    }
+
+    /// Every agent's initial flat parameters.
+    #[must_use]
+    pub fn initial(&self) -> Vec<Vec<f32>> {
+        let stream = |i: usize| self.streams.get(i).copied().unwrap_or(i as u64);
+        self.layout().shapes.iter().enumerate().map(|(i, s)| s.init(self.seed, stream(i))).collect()
+    }
+
+    /// The networks on `device`.
+    ///
+    /// # Errors
+    /// [`NnError::InvalidConfig`] for no agents, a zero width or mismatched lists.
+    pub fn init(&self, device: &Device) -> Result<StackedMlp, NnError> {
+        let bad = |reason: &str| Err(NnError::InvalidConfig { key: "networks", reason: reason.into() });
+        if self.inputs.is_empty() || self.inputs.len() != self.outputs.len() {
+            return bad("need one input and one output width per agent, and at least one agent");
+        }
+        if self.hidden == 0
+            || self.layers == 0
+            || self.head_mult == 0
+            || self.inputs.contains(&0)
+            || self.outputs.contains(&0)
+        {
+            return bad("every width and the number of layers must be positive");
+        }
+        let layout = self.layout();
+        Ok(StackedMlp::from_flats(&layout, &self.initial(), device, self.id_base))
+    }
+}
+
+/// Every agent's network of one kind (actor or critic) as one stack of
+/// [`StackedLinear`] layers, ReLU between them. The actor is input layer
+/// (own) -> trunk (layers `1..L-1`, the same shape for every agent, mixed by
+/// information sharing) -> head (own); the critic has the same structure,
+/// its trunk being its hidden -> hidden layers.
+#[derive(Module, Debug)]
+pub struct StackedMlp {
+    /// The layers, input first.
+    pub layers: Vec<StackedLinear>,
+}
+
+impl StackedMlp {
+    /// The stack holding every agent's `flats` (laid out by `layout`) on `device`.
+    #[must_use]
+    pub fn from_flats(layout: &StackLayout, flats: &[Vec<f32>], device: &Device, id_base: u64) -> Self {
+        let a = layout.agents();
+        let layers = layout
+            .pack(flats)
+            .into_iter()
+            .zip(&layout.stacked.layers)
+            .enumerate()
+            .map(|(k, ((w, b), &(i, o)))| {
+                let id = id_base + 2 * k as u64;
+                let w = Tensor::<3>::from_data(TensorData::new(w, [a, i, o]), device);
+                let b = Tensor::<3>::from_data(TensorData::new(b, [a, 1, o]), device);
+                StackedLinear { weight: leaf(ParamId::from(id), w), bias: leaf(ParamId::from(id + 1), b) }
+            })
+            .collect();
+        Self { layers }
+    }
+
+    /// Every agent's flat parameters ([`NetShape`] layout), read back from the device.
+    ///
+    /// # Errors
+    /// [`NnError::Backend`] if the device cannot read them back.
+    pub fn to_flats(&self, layout: &StackLayout) -> Result<Vec<Vec<f32>>, NnError> {
+        let host = self
+            .layers
+            .iter()
+            .map(|l| {
+                Ok((
+                    read(l.weight.val().inner().into_data(), "weights")?,
+                    read(l.bias.val().inner().into_data(), "biases")?,
+                ))
+            })
+            .collect::<Result<Vec<_>, NnError>>()?;
+        Ok(layout.unpack(&host))
+    }
+
+    /// The outputs for inputs `x: [A or 1, n, in]`: `[A, n, out]`, before any squashing.
+    pub fn forward(&self, x: Tensor<3>) -> Tensor<3> {
+        let last = self.layers.len() - 1;
+        let mut h = x;
+        for (k, layer) in self.layers.iter().enumerate() {
+            h = layer.forward(h);
+            if k < last {
+                h = relu(h);
+            }
+        }
+        h
+    }
+
+    /// The trunk: layers `1..L-1` (hidden -> hidden), what information sharing mixes.
+    pub fn trunk_mut(&mut self) -> &mut [StackedLinear] {
+        let n = self.layers.len();
+        if n < 3 { &mut [] } else { &mut self.layers[1..n - 1] }
+    }
+
+    /// The trunk's parameter ids, `(weight, bias)` per layer.
+    pub(crate) fn trunk_ids(&self) -> Vec<(ParamId, ParamId)> {
+        let n = self.layers.len();
+        self.layers.get(1..n.saturating_sub(1)).unwrap_or(&[]).iter().map(|l| (l.weight.id, l.bias.id)).collect()
+    }
+
+    /// Every parameter's id.
+    pub(crate) fn ids(&self) -> Vec<(ParamId, ParamId)> {
+        self.layers.iter().map(|l| (l.weight.id, l.bias.id)).collect()
+    }
+
+    /// `self <- polyak * self + (1 - polyak) * online` (eq. 9), whole tensors.
+    pub(crate) fn soft_update(&mut self, online: &StackedMlp, polyak: f32) {
+        let mix = |t: Tensor<3>, o: Tensor<3>| t.mul_scalar(polyak) + o.inner().mul_scalar(1.0 - polyak);
+        for (t, o) in self.layers.iter_mut().zip(&online.layers) {
+            t.weight = Param::initialized(t.weight.id, mix(t.weight.val(), o.weight.val()));
+            t.bias = Param::initialized(t.bias.id, mix(t.bias.val(), o.bias.val()));
         }
     }
-    Ok(())
+
+    /// The same stack on `device` as plain (no autodiff) tensors: the host
+    /// copy the rollouts act with.
+    ///
+    /// # Errors
+    /// [`NnError::Backend`] if the device cannot read the parameters back.
+    pub fn copy_to(&self, device: &Device) -> Result<Self, NnError> {
+        let copy = |p: &Param<Tensor<3>>| -> Result<Param<Tensor<3>>, NnError> {
+            let data = p.val().inner().into_data();
+            Ok(Param::initialized(p.id, Tensor::<3>::from_data(data, device)))
+        };
+        let layers = self
+            .layers
+            .iter()
+            .map(|l| Ok(StackedLinear { weight: copy(&l.weight)?, bias: copy(&l.bias)? }))
+            .collect::<Result<_, NnError>>()?;
+        Ok(Self { layers })
+    }
 }
 
 fn read(data: TensorData, what: &'static str) -> Result<Vec<f32>, NnError> {
     data.try_into_vec::<f32>().map_err(|e| NnError::Backend { what, reason: format!("{e:?}") })
 }
 
-/// Moves each parameter of `target` towards the same parameter of `online`:
-/// `theta' <- polyak * theta' + (1 - polyak) * theta` (eq. 9, HER's convention).
-fn soft_update_linear(target: &mut Linear, online: &Linear, polyak: f32) {
-    let mix = |t: Tensor<2>, o: Tensor<2>| t.mul_scalar(polyak) + o.inner().mul_scalar(1.0 - polyak);
-    let w = mix(target.weight.val(), online.weight.val());
-    target.weight = Param::initialized(target.weight.id, w);
-    if let (Some(tb), Some(ob)) = (&target.bias, &online.bias) {
-        let b = tb.val().mul_scalar(polyak) + ob.val().inner().mul_scalar(1.0 - polyak);
-        target.bias = Some(Param::initialized(tb.id, b));
-    }
-}
-
-/// Builds an [`Actor`]: `input -> hidden` (own), `layers - 1` trunk layers
-/// `hidden -> hidden` (the same shape for every agent, mixed by information
-/// sharing), `hidden -> output` (own head).
-///
-/// ```
-/// use fmsr_nn::{ActorConfig, Device};
-/// let actor = ActorConfig::new(5, 16, 3, 2).with_seed(7).init(&Device::flex());
-/// assert_eq!(actor.trunk.len(), 2);
-/// assert_eq!(actor.shape().num_params(), 5 * 16 + 16 + 2 * (16 * 16 + 16) + 16 * 2 + 2);
-/// ```
-#[derive(Config, Debug, PartialEq)]
-pub struct ActorConfig {
-    /// Width of the actor input.
-    pub input: usize,
-    /// Width of every hidden layer.
-    pub hidden: usize,
-    /// Number of hidden layers (>= 1).
-    pub layers: usize,
-    /// Width of the head's output.
-    pub output: usize,
-    /// Seed of the weight initialisation.
-    #[config(default = 0)]
-    pub seed: u64,
-    /// ChaCha8 stream of the weight initialisation (one per network of a seed).
-    #[config(default = 0)]
-    pub stream: u64,
-    /// First parameter id (see [`NetShape`]).
-    #[config(default = 0)]
-    pub id_base: u64,
-}
-
-impl ActorConfig {
-    /// The layer sizes.
-    #[must_use]
-    pub fn shape(&self) -> NetShape {
-        NetShape::mlp(self.input, self.hidden, self.layers, self.output)
-    }
-
-    /// The actor on `device`, initialised from `seed` and `stream`.
-    #[must_use]
-    pub fn init(&self, device: &Device) -> Actor {
-        let shape = self.shape();
-        Actor::from_flat(&shape, &shape.init(self.seed, self.stream), device, self.id_base)
-    }
-}
-
-/// The actor of one agent: own input layer -> trunk -> own head, ReLU between
-/// layers. [`Actor::forward`] returns the head's pre-activation; each algorithm
-/// applies its own squashing (tanh for MADDPG/MATD3, a tanh-Gaussian for MASAC).
-#[derive(Module, Debug)]
-pub struct Actor {
-    /// `actor_input_dim(i) -> hidden`.
-    pub input: Linear,
-    /// `layers - 1` layers `hidden -> hidden`.
-    pub trunk: Vec<Linear>,
-    /// `hidden -> output`.
-    pub head: Linear,
-}
-
-impl Actor {
-    /// The actor of `shape` holding `flat` on `device` (ids from `id_base`).
-    pub(crate) fn from_flat(shape: &NetShape, flat: &[f32], device: &Device, id_base: u64) -> Self {
-        Self::from_layers(shape.linears(flat, device, id_base))
-    }
-
-    fn from_layers(mut layers: Vec<Linear>) -> Self {
-        let head = layers.pop().expect("NetShape::mlp has at least two layers");
-        let mut rest = layers.into_iter();
-        let input = rest.next().expect("NetShape::mlp has at least two layers");
-        Self { input, trunk: rest.collect(), head }
-    }
-
-    /// The head's output for a batch `x` of normalised actor inputs, `[n, input] -> [n, output]`.
-    pub fn forward(&self, x: Tensor<2>) -> Tensor<2> {
-        let mut h = relu(self.input.forward(x));
-        for layer in &self.trunk {
-            h = relu(layer.forward(h));
-        }
-        self.head.forward(h)
-    }
-
-    /// The layers in flat order.
-    pub(crate) fn layers(&self) -> Vec<&Linear> {
-        std::iter::once(&self.input).chain(&self.trunk).chain(std::iter::once(&self.head)).collect()
-    }
-
-    /// The layer sizes.
-    #[must_use]
-    pub fn shape(&self) -> NetShape {
-        NetShape { layers: self.layers().iter().map(|l| dims(l)).collect() }
-    }
-
-    /// All parameters, flattened in [`NetShape`] order.
-    ///
-    /// # Errors
-    /// [`NnError::Backend`] if the device cannot read them back.
-    pub fn to_flat(&self) -> Result<Vec<f32>, NnError> {
-        let mut out = Vec::with_capacity(self.shape().num_params());
-        flatten(&self.layers(), &mut out)?;
-        Ok(out)
-    }
-
-    /// The same actor holding `flat` (same ids, same device).
-    pub(crate) fn with_flat(&self, flat: &[f32]) -> Self {
-        let device = self.input.weight.val().device();
-        Self::from_flat(&self.shape(), flat, &device, self.input.weight.id.val())
-    }
-
-    /// `self <- polyak * self + (1 - polyak) * online`.
-    pub(crate) fn soft_update(&mut self, online: &Actor, polyak: f32) {
-        soft_update_linear(&mut self.input, &online.input, polyak);
-        for (t, o) in self.trunk.iter_mut().zip(&online.trunk) {
-            soft_update_linear(t, o, polyak);
-        }
-        soft_update_linear(&mut self.head, &online.head, polyak);
-    }
-}
-
-/// Builds a [`Critic`]: `input -> hidden x layers -> 1`.
-///
-/// ```
-/// use fmsr_nn::{CriticConfig, Device};
-/// let critic = CriticConfig::new(10, 16, 2).init(&Device::flex());
-/// assert_eq!(critic.hidden.len(), 2);
-/// ```
-#[derive(Config, Debug, PartialEq)]
-pub struct CriticConfig {
-    /// Width of the critic input `[x, g, a_1 .. a_N]`.
-    pub input: usize,
-    /// Width of every hidden layer.
-    pub hidden: usize,
-    /// Number of hidden layers (>= 1).
-    pub layers: usize,
-    /// Seed of the weight initialisation.
-    #[config(default = 0)]
-    pub seed: u64,
-    /// ChaCha8 stream of the weight initialisation.
-    #[config(default = 0)]
-    pub stream: u64,
-    /// First parameter id (see [`NetShape`]).
-    #[config(default = 0)]
-    pub id_base: u64,
-}
-
-impl CriticConfig {
-    /// The layer sizes.
-    #[must_use]
-    pub fn shape(&self) -> NetShape {
-        NetShape::mlp(self.input, self.hidden, self.layers, 1)
-    }
-
-    /// The critic on `device`, initialised from `seed` and `stream`.
-    #[must_use]
-    pub fn init(&self, device: &Device) -> Critic {
-        let shape = self.shape();
-        Critic::from_flat(&shape, &shape.init(self.seed, self.stream), device, self.id_base)
-    }
-}
-
-/// The critic of one agent: `[global obs, goal, joint action] -> hidden x layers -> Q`,
-/// ReLU between layers. Its trunk for information sharing is its hidden -> hidden layers.
-#[derive(Module, Debug)]
-pub struct Critic {
-    /// The hidden layers, the first `critic_input_dim -> hidden`.
-    pub hidden: Vec<Linear>,
-    /// `hidden -> 1`.
-    pub out: Linear,
-}
-
-impl Critic {
-    /// The critic of `shape` holding `flat` on `device` (ids from `id_base`).
-    pub(crate) fn from_flat(shape: &NetShape, flat: &[f32], device: &Device, id_base: u64) -> Self {
-        Self::from_layers(shape.linears(flat, device, id_base))
-    }
-
-    fn from_layers(mut hidden: Vec<Linear>) -> Self {
-        let out = hidden.pop().expect("NetShape::mlp has at least two layers");
-        Self { hidden, out }
-    }
-
-    /// `Q(x)` for a batch `x` of critic inputs, `[n, input] -> [n, 1]`.
-    pub fn forward(&self, x: Tensor<2>) -> Tensor<2> {
-        let mut h = x;
-        for layer in &self.hidden {
-            h = relu(layer.forward(h));
-        }
-        self.out.forward(h)
-    }
-
-    /// The layers in flat order.
-    pub(crate) fn layers(&self) -> Vec<&Linear> {
-        self.hidden.iter().chain(std::iter::once(&self.out)).collect()
-    }
-
-    /// The hidden -> hidden layers (what information sharing mixes).
-    pub(crate) fn trunk_mut(&mut self) -> &mut [Linear] {
-        let n = self.hidden.len();
-        if n < 2 { &mut [] } else { &mut self.hidden[1..] }
-    }
-
-    /// The layer sizes.
-    #[must_use]
-    pub fn shape(&self) -> NetShape {
-        NetShape { layers: self.layers().iter().map(|l| dims(l)).collect() }
-    }
-
-    /// All parameters, flattened in [`NetShape`] order.
-    ///
-    /// # Errors
-    /// [`NnError::Backend`] if the device cannot read them back.
-    pub fn to_flat(&self) -> Result<Vec<f32>, NnError> {
-        let mut out = Vec::with_capacity(self.shape().num_params());
-        flatten(&self.layers(), &mut out)?;
-        Ok(out)
-    }
-
-    /// The same critic holding `flat` (same ids, same device).
-    pub(crate) fn with_flat(&self, flat: &[f32]) -> Self {
-        let device = self.out.weight.val().device();
-        let id = self.layers()[0].weight.id.val();
-        Self::from_flat(&self.shape(), flat, &device, id)
-    }
-
-    /// `self <- polyak * self + (1 - polyak) * online`.
-    pub(crate) fn soft_update(&mut self, online: &Critic, polyak: f32) {
-        for (t, o) in self.hidden.iter_mut().zip(&online.hidden) {
-            soft_update_linear(t, o, polyak);
-        }
-        soft_update_linear(&mut self.out, &online.out, polyak);
-    }
-}
-
-/// One or two critics of an agent (MATD3 and MASAC learn twin critics), one
-/// module so that one optimiser steps both.
+/// One or two critic stacks (MATD3 and MASAC learn twin critics), one module
+/// so that one optimiser steps both.
 #[derive(Module, Debug)]
 pub struct Critics {
-    /// The critics.
-    pub nets: Vec<Critic>,
+    /// The stacks, each holding one critic of every agent.
+    pub nets: Vec<StackedMlp>,
 }
 
-fn dims(l: &Linear) -> (usize, usize) {
-    let [i, o] = l.weight.val().dims();
-    (i, o)
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    /// Agents with inputs `ins`, outputs `outs` (per block) and their flat parameters.
+    fn agents() -> impl Strategy<Value = (Vec<usize>, Vec<usize>, usize, usize, Vec<Vec<f32>>)> {
+        (1usize..4, 1usize..3, 1usize..3)
+            .prop_flat_map(|(n, layers, head_mult)| {
+                (
+                    prop::collection::vec(1usize..6, n),
+                    prop::collection::vec(1usize..4, n),
+                    Just(layers),
+                    Just(head_mult),
+                )
+            })
+            .prop_flat_map(|(ins, outs, layers, head_mult)| {
+                let layout = StackLayout::new(&ins, 3, layers, &outs, head_mult);
+                let flats = layout
+                    .shapes
+                    .iter()
+                    .map(|s| prop::collection::vec(-1.0f32..1.0, s.num_params()))
+                    .collect::<Vec<_>>();
+                (Just(ins), Just(outs), Just(layers), Just(head_mult), flats)
+            })
+    }
+
+    proptest! {
+        // Guards the stacking layout: every agent's parameters come back
+        // exactly from a stack, whatever the padding.
+        #[test]
+        fn stacks_return_every_agents_parameters((ins, outs, layers, mult, flats) in agents()) {
+            let layout = StackLayout::new(&ins, 3, layers, &outs, mult);
+            let stack = StackedMlp::from_flats(&layout, &flats, &Device::flex(), 0);
+            prop_assert_eq!(stack.to_flats(&layout).unwrap(), flats);
+        }
+
+        // Guards the padding: a stack computes for each agent what the agent's
+        // own network computes on its own input (zero-padded), in the agent's
+        // own output columns.
+        #[test]
+        fn a_stack_computes_each_agents_network((ins, outs, layers, mult, flats) in agents(), x in -1.0f32..1.0) {
+            let layout = StackLayout::new(&ins, 3, layers, &outs, mult);
+            let device = Device::flex();
+            let stack = StackedMlp::from_flats(&layout, &flats, &device, 0);
+            let width = layout.stacked.layers[0].0;
+            let mut input = vec![0.0f32; ins.len() * width];
+            for (i, &d) in ins.iter().enumerate() {
+                for k in 0..d {
+                    input[i * width + k] = x * (k as f32 + 1.0) / d as f32;
+                }
+            }
+            let y = stack.forward(Tensor::from_data(TensorData::new(input.clone(), [ins.len(), 1, width]), &device));
+            let w = y.dims()[2];
+            let y = y.into_data().try_to_vec::<f32>().unwrap();
+            for (i, shape) in layout.shapes.iter().enumerate() {
+                let single = StackLayout { shapes: vec![shape.clone()], stacked: shape.clone(), head_cols: vec![(0..shape.layers.last().unwrap().1).collect()] };
+                let own = StackedMlp::from_flats(&single, &flats[i..=i], &device, 0);
+                let xi = input[i * width..i * width + ins[i]].to_vec();
+                let yi = own.forward(Tensor::from_data(TensorData::new(xi, [1, 1, ins[i]]), &device)).into_data().try_to_vec::<f32>().unwrap();
+                for (c, &col) in layout.head_cols[i].iter().enumerate() {
+                    prop_assert!((y[i * w + col] - yi[c]).abs() <= 1e-5 * (1.0 + yi[c].abs()), "agent {i} output {c}");
+                }
+            }
+        }
+    }
 }

@@ -3,10 +3,11 @@
 //! file is an error, never a panic. `f32`/`f64` values are stored bit for bit,
 //! so a restored learner continues exactly as the saved one would have.
 //!
-//! Networks are stored as flat parameter vectors (the [`crate::NetShape`]
-//! layout), optimiser states as burn's burnpack records, which are keyed by
-//! parameter ids; the learners derive their ids from (agent, network), so a
-//! learner built again from the same config reads its own records back.
+//! Networks are stored per agent as flat parameter vectors (the
+//! [`crate::NetShape`] layout), optimiser states as burn's burnpack records of
+//! the stacked modules, which are keyed by parameter ids; the learners derive
+//! their ids from the network kind, so a learner built again from the same
+//! config reads its own records back.
 
 use burn::optim::ModuleOptimizer;
 use burn::tensor::Bytes;
@@ -17,14 +18,18 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{NnError, check_values};
-use crate::learner::{AgentNets, Learner};
-use crate::net::{Critic, Critics};
+use crate::group::Group;
+use crate::learner::Learner;
+use crate::net::Critics;
 use crate::normalizer::Normalizer;
 
 const MAGIC: &[u8; 8] = b"FMSRNNST";
 
-/// The version of [`LearnerState`]'s layout.
-const STATE_FORMAT: u32 = 3;
+/// The version of [`LearnerState`]'s layout: 4 since the agents' networks
+/// are stacked in groups, each group with one optimiser record per kind.
+/// States of version 3 (one optimiser record per agent) are refused with
+/// [`NnError::CorruptState`] naming both versions.
+const STATE_FORMAT: u32 = 4;
 
 /// The header of [`fmsr_core::persist`], then the postcard body.
 pub(crate) fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, NnError> {
@@ -47,24 +52,34 @@ pub(crate) fn decode<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, NnError> {
 impl Learner {
     /// The learner's state; `extra` carries the algorithm's own.
     pub(crate) fn save(&self, algorithm: &str, include_storage: bool, extra: Vec<f64>) -> Result<Vec<u8>, NnError> {
-        let agents = self
-            .agents
-            .iter()
-            .map(|a| {
-                Ok(AgentState {
-                    actor: a.actor.to_flat()?,
-                    actor_target: a.actor_target.to_flat()?,
-                    critics: a.critics.nets.iter().map(Critic::to_flat).collect::<Result<_, _>>()?,
-                    critic_targets: a.critic_targets.nets.iter().map(Critic::to_flat).collect::<Result<_, _>>()?,
-                    actor_optim: optim_bytes(&a.actor_optim)?,
-                    critic_optim: optim_bytes(&a.critic_optim)?,
-                    actor_norm: a.actor_norm.clone(),
-                })
-            })
-            .collect::<Result<Vec<_>, NnError>>()?;
+        let mut agents = Vec::with_capacity(self.num_agents());
+        let (mut actor_optim, mut critic_optim) = (Vec::new(), Vec::new());
+        for group in &self.groups {
+            let nets = &group.nets;
+            let critic_flats = |cs: &Critics| -> Result<Vec<Vec<Vec<f32>>>, NnError> {
+                cs.nets.iter().map(|c| c.to_flats(&group.critic_layout)).collect()
+            };
+            let actors = nets.actors.to_flats(&group.actor_layout)?;
+            let targets = nets.actor_targets.to_flats(&group.actor_layout)?;
+            let (critics, critic_targets) = (critic_flats(&nets.critics)?, critic_flats(&nets.critic_targets)?);
+            for (k, i) in group.agents.clone().enumerate() {
+                agents.push(AgentState {
+                    actor: actors[k].clone(),
+                    actor_target: targets[k].clone(),
+                    critics: critics.iter().map(|c| c[k].clone()).collect(),
+                    critic_targets: critic_targets.iter().map(|c| c[k].clone()).collect(),
+                    actor_norm: self.actor_norms[i].clone(),
+                });
+            }
+            actor_optim.push(optim_bytes(&nets.actor_optim)?);
+            critic_optim.push(optim_bytes(&nets.critic_optim)?);
+        }
         let state = LearnerState {
             algorithm: algorithm.to_owned(),
             agents,
+            group_sizes: self.groups.iter().map(|g| g.len() as u64).collect(),
+            actor_optim,
+            critic_optim,
             critic_norm: self.critic_norm.clone(),
             rng: self.rng.clone(),
             steps: self.steps,
@@ -82,12 +97,22 @@ impl Learner {
         if state.algorithm != algorithm {
             return Err(mismatch("algorithm", algorithm.into(), state.algorithm));
         }
-        if state.agents.len() != self.agents.len() {
-            return Err(mismatch("agents", self.agents.len().to_string(), state.agents.len().to_string()));
+        if state.agents.len() != self.num_agents() {
+            return Err(mismatch("agents", self.num_agents().to_string(), state.agents.len().to_string()));
         }
-        let mut restored = Vec::with_capacity(self.agents.len());
-        for (i, (a, s)) in self.agents.iter().zip(state.agents).enumerate() {
-            restored.push(restore_agent(i, a, s)?);
+        let sizes: Vec<u64> = self.groups.iter().map(|g| g.len() as u64).collect();
+        if state.group_sizes != sizes
+            || state.actor_optim.len() != sizes.len()
+            || state.critic_optim.len() != sizes.len()
+        {
+            return Err(mismatch(
+                "agent groups (networks.stacking)",
+                format!("{sizes:?}"),
+                format!("{:?}", state.group_sizes),
+            ));
+        }
+        for (i, s) in state.agents.iter().enumerate() {
+            self.check_agent_state(i, s)?;
         }
         if let Some(replay) = &state.replay {
             if !replay.is_compatible(self.layout.spec()) {
@@ -102,26 +127,90 @@ impl Learner {
                 state.critic_norm.dim().to_string(),
             ));
         }
-        self.agents = restored;
+        let load = |o: &ModuleOptimizer, bytes: &[u8], what: &str| {
+            o.clone()
+                .from_bytes(Bytes::from_bytes_vec(bytes.to_vec()))
+                .map_err(|e| NnError::CorruptState { offset: 0, reason: format!("{what} optimizer: {e:?}") })
+        };
+        let mut optims = Vec::with_capacity(self.groups.len());
+        for (g, group) in self.groups.iter().enumerate() {
+            optims.push((
+                load(&group.nets.actor_optim, &state.actor_optim[g], "actor")?,
+                load(&group.nets.critic_optim, &state.critic_optim[g], "critic")?,
+            ));
+        }
+        for (group, (actor, critic)) in self.groups.iter_mut().zip(optims) {
+            restore_group(group, &state.agents[group.agents.clone()]);
+            group.nets.actor_optim = actor;
+            group.nets.critic_optim = critic;
+        }
+        self.actor_norms = state.agents.into_iter().map(|a| a.actor_norm).collect();
         self.critic_norm = state.critic_norm;
         self.rng = state.rng;
         self.steps = state.steps;
         if let Some(replay) = state.replay {
             self.replay = replay;
         }
-        self.act_cache = None;
         Ok(state.extra)
+    }
+
+    /// Checks agent `i`'s saved networks and normaliser against this learner's shapes.
+    fn check_agent_state(&self, i: usize, s: &AgentState) -> Result<(), NnError> {
+        let (g, k) = self.locate(i)?;
+        let group = &self.groups[g];
+        let check = |what: String, flat: &[f32], expected: usize| check_values(|| what.clone(), flat, expected);
+        let actor_len = group.actor_layout.shapes[k].num_params();
+        check(format!("agent {i} actor"), &s.actor, actor_len)
+            .and_then(|()| check(format!("agent {i} target actor"), &s.actor_target, actor_len))
+            .map_err(|e| state_mismatch(i, "actor", e))?;
+        let critics = group.nets.critics.nets.len();
+        if s.critics.len() != critics || s.critic_targets.len() != critics {
+            return Err(NnError::StateMismatch {
+                what: format!("agent {i} critics"),
+                expected: critics.to_string(),
+                found: s.critics.len().to_string(),
+            });
+        }
+        let critic_len = group.critic_layout.shapes[k].num_params();
+        for (c, t) in s.critics.iter().zip(&s.critic_targets) {
+            check(format!("agent {i} critic"), c, critic_len)
+                .and_then(|()| check(format!("agent {i} target critic"), t, critic_len))
+                .map_err(|e| state_mismatch(i, "critic", e))?;
+        }
+        if s.actor_norm.dim() != self.actor_norms[i].dim() {
+            return Err(NnError::StateMismatch {
+                what: format!("agent {i} actor normaliser"),
+                expected: self.actor_norms[i].dim().to_string(),
+                found: s.actor_norm.dim().to_string(),
+            });
+        }
+        Ok(())
     }
 }
 
+/// Rebuilds a group's networks from its agents' checked states, with the same ids.
+fn restore_group(group: &mut Group, agents: &[AgentState]) {
+    let column = |f: &dyn Fn(&AgentState) -> Vec<f32>| agents.iter().map(f).collect::<Vec<_>>();
+    let nets = &mut group.nets;
+    nets.actors = Group::rebuild(&group.actor_layout, &column(&|a| a.actor.clone()), &nets.actors);
+    nets.actor_targets = Group::rebuild(&group.actor_layout, &column(&|a| a.actor_target.clone()), &nets.actor_targets);
+    for c in 0..nets.critics.nets.len() {
+        let online = column(&|a| a.critics[c].clone());
+        let target = column(&|a| a.critic_targets[c].clone());
+        nets.critics.nets[c] = Group::rebuild(&group.critic_layout, &online, &nets.critics.nets[c]);
+        nets.critic_targets.nets[c] = Group::rebuild(&group.critic_layout, &target, &nets.critic_targets.nets[c]);
+    }
+    group.act_cache = None;
+}
+
+/// One agent's networks in its own [`crate::NetShape`] layout (whatever the
+/// stacking), so states do not depend on how the learner batches its agents.
 #[derive(Serialize, Deserialize)]
 struct AgentState {
     actor: Vec<f32>,
     actor_target: Vec<f32>,
     critics: Vec<Vec<f32>>,
     critic_targets: Vec<Vec<f32>>,
-    actor_optim: Vec<u8>,
-    critic_optim: Vec<u8>,
     actor_norm: Normalizer,
 }
 
@@ -129,6 +218,12 @@ struct AgentState {
 struct LearnerState {
     algorithm: String,
     agents: Vec<AgentState>,
+    /// The number of agents of each group ([`crate::Stacking`]).
+    group_sizes: Vec<u64>,
+    /// burn's record of each group's actor Adam (moments of the stacked parameters).
+    actor_optim: Vec<Vec<u8>>,
+    /// The same for the critics.
+    critic_optim: Vec<Vec<u8>>,
     critic_norm: Normalizer,
     rng: ChaCha8Rng,
     steps: u64,
@@ -140,50 +235,6 @@ fn optim_bytes(o: &ModuleOptimizer) -> Result<Vec<u8>, NnError> {
     o.into_bytes()
         .map(|b| b.to_vec())
         .map_err(|e| NnError::Backend { what: "optimizer state", reason: format!("{e:?}") })
-}
-
-fn restore_agent(i: usize, a: &AgentNets, s: AgentState) -> Result<AgentNets, NnError> {
-    let check = |what: String, flat: &[f32], expected: usize| check_values(|| what.clone(), flat, expected);
-    let actor_len = a.actor.shape().num_params();
-    check(format!("agent {i} actor"), &s.actor, actor_len)
-        .and_then(|()| check(format!("agent {i} target actor"), &s.actor_target, actor_len))
-        .map_err(|e| state_mismatch(i, "actor", e))?;
-    if s.critics.len() != a.critics.nets.len() || s.critic_targets.len() != a.critics.nets.len() {
-        return Err(NnError::StateMismatch {
-            what: format!("agent {i} critics"),
-            expected: a.critics.nets.len().to_string(),
-            found: s.critics.len().to_string(),
-        });
-    }
-    let critic_len = a.critics.nets[0].shape().num_params();
-    for (c, t) in s.critics.iter().zip(&s.critic_targets) {
-        check(format!("agent {i} critic"), c, critic_len)
-            .and_then(|()| check(format!("agent {i} target critic"), t, critic_len))
-            .map_err(|e| state_mismatch(i, "critic", e))?;
-    }
-    if s.actor_norm.dim() != a.actor_norm.dim() {
-        return Err(NnError::StateMismatch {
-            what: format!("agent {i} actor normaliser"),
-            expected: a.actor_norm.dim().to_string(),
-            found: s.actor_norm.dim().to_string(),
-        });
-    }
-    let load = |o: &ModuleOptimizer, bytes: Vec<u8>| {
-        o.clone()
-            .from_bytes(Bytes::from_bytes_vec(bytes))
-            .map_err(|e| NnError::CorruptState { offset: 0, reason: format!("agent {i} optimizer: {e:?}") })
-    };
-    Ok(AgentNets {
-        actor: a.actor.with_flat(&s.actor),
-        actor_target: a.actor_target.with_flat(&s.actor_target),
-        critics: Critics { nets: a.critics.nets.iter().zip(&s.critics).map(|(c, f)| c.with_flat(f)).collect() },
-        critic_targets: Critics {
-            nets: a.critic_targets.nets.iter().zip(&s.critic_targets).map(|(c, f)| c.with_flat(f)).collect(),
-        },
-        actor_optim: load(&a.actor_optim, s.actor_optim)?,
-        critic_optim: load(&a.critic_optim, s.critic_optim)?,
-        actor_norm: s.actor_norm,
-    })
 }
 
 fn state_mismatch(i: usize, what: &str, e: NnError) -> NnError {

@@ -1,9 +1,9 @@
-//! The agents' worker threads: each agent's update runs on one of
-//! `networks.threads` OS threads, each driving a single-thread rayon pool so
-//! that burn's kernels do not oversubscribe the cores.
+//! The worker threads of the agent groups: on the CPU each group (one agent
+//! by default, see [`crate::Stacking`]) runs on one of `networks.threads` OS
+//! threads, each driving a single-thread rayon pool so that burn's kernels do
+//! not oversubscribe the cores.
 
 use crate::error::NnError;
-use crate::learner::AgentNets;
 
 /// One single-thread rayon pool per worker thread (none for one thread).
 pub(crate) fn worker_pools(workers: usize) -> Result<Vec<rayon::ThreadPool>, NnError> {
@@ -14,7 +14,7 @@ pub(crate) fn worker_pools(workers: usize) -> Result<Vec<rayon::ThreadPool>, NnE
         .map(|k| {
             rayon::ThreadPoolBuilder::new()
                 .num_threads(1)
-                .thread_name(move |_| format!("fmsr-nn-agent-worker-{k}"))
+                .thread_name(move |_| format!("fmsr-nn-group-worker-{k}"))
                 .build()
                 .map_err(|e| NnError::InvalidConfig {
                     key: "networks.threads",
@@ -24,23 +24,23 @@ pub(crate) fn worker_pools(workers: usize) -> Result<Vec<rayon::ThreadPool>, NnE
         .collect()
 }
 
-/// `f(i, agent_i)` for every agent: with no pools in order on the calling
+/// `f(g, item_g)` for every item: with no pools in order on the calling
 /// thread, otherwise round robin over the single-thread `pools`, one scoped OS
-/// thread driving each, so agents run in parallel and each agent's kernels run
-/// on one core. Each agent's result depends only on its own state, so results
+/// thread driving each, so items run in parallel and each item's kernels run
+/// on one core. Each item's result depends only on its own state, so results
 /// are the same for any number of threads.
-pub(crate) fn par_agents<T: Send>(
+pub(crate) fn par_each<I: Send, T: Send>(
     pools: &[rayon::ThreadPool],
-    agents: &mut [AgentNets],
-    f: impl Fn(usize, &mut AgentNets) -> Result<T, NnError> + Sync,
+    items: &mut [I],
+    f: impl Fn(usize, &mut I) -> Result<T, NnError> + Sync,
 ) -> Result<Vec<T>, NnError> {
-    let n = agents.len();
+    let n = items.len();
     let t = pools.len().min(n);
     if t <= 1 {
-        return agents.iter_mut().enumerate().map(|(i, a)| f(i, a)).collect();
+        return items.iter_mut().enumerate().map(|(i, a)| f(i, a)).collect();
     }
-    let mut buckets: Vec<Vec<(usize, &mut AgentNets)>> = (0..t).map(|_| Vec::new()).collect();
-    for (i, a) in agents.iter_mut().enumerate() {
+    let mut buckets: Vec<Vec<(usize, &mut I)>> = (0..t).map(|_| Vec::new()).collect();
+    for (i, a) in items.iter_mut().enumerate() {
         buckets[i % t].push((i, a));
     }
     let f = &f;
@@ -63,6 +63,6 @@ pub(crate) fn par_agents<T: Send>(
     });
     slots
         .into_iter()
-        .map(|s| s.unwrap_or(Err(NnError::Backend { what: "agent update", reason: "a worker thread panicked".into() })))
+        .map(|s| s.unwrap_or(Err(NnError::Backend { what: "group update", reason: "a worker thread panicked".into() })))
         .collect()
 }

@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 use fmsr::prelude::*;
+use rand::{Rng, SeedableRng};
 
 /// Small networks and a small budget: enough for TeamReach to be learned.
 pub fn trainer_config(method: Method, seed: u64, epochs: usize) -> TrainerConfig {
@@ -107,4 +108,21 @@ pub fn team_reach_trainer(method: Method, seed: u64, epochs: usize) -> Trainer<T
 /// An epoch's statistics without the wall-clock timings, which differ between runs.
 pub fn learning_stats(s: &EpochStats) -> EpochStats {
     EpochStats { env_steps_per_sec: 0.0, updates_per_sec: 0.0, seconds: 0.0, ..s.clone() }
+}
+
+/// Success rate of uniformly random joint actions on the evaluation seeds.
+pub fn random_policy_success(seeds: &[u64]) -> f64 {
+    let mut env = TeamReachConfig::default().init().unwrap();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(99);
+    let mut successes = 0;
+    for &seed in seeds {
+        env.reset(seed).unwrap();
+        let mut last = None;
+        for _ in 0..env.spec().episode_len {
+            let a = JointAction((0..6).map(|_| rng.random_range(-1.0..=1.0)).collect());
+            last = Some(env.step(&a).unwrap());
+        }
+        successes += usize::from(last.unwrap().info.is_success);
+    }
+    successes as f64 / seeds.len() as f64
 }

@@ -1,0 +1,305 @@
+//! A group of agents whose networks are stacked ([`crate::Stacking`]): their
+//! actors, critics, targets and optimisers as [`StackedMlp`]s, the constant
+//! tensors that place their actions in the joint action, and their share of a
+//! sampled batch.
+//!
+//! Agent `i`'s loss depends only on agent `i`'s parameters, so one backward
+//! pass of the sum of a group's losses gives each agent its own gradient, as
+//! separate per-agent updates would.
+
+use std::ops::Range;
+
+use burn::module::ParamId;
+use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
+use burn::tensor::{Device, Tensor, TensorData};
+use fmsr_core::sharing::NetworkGroup;
+
+use crate::error::NnError;
+use crate::net::{Critics, StackLayout, StackedMlp, StackedMlpConfig};
+
+/// A group's online and target networks and their optimisers.
+#[derive(Clone)]
+pub(crate) struct Nets {
+    /// Online actors, on the autodiff device.
+    pub(crate) actors: StackedMlp,
+    /// Target actors, on the plain device.
+    pub(crate) actor_targets: StackedMlp,
+    /// Online critics, on the autodiff device.
+    pub(crate) critics: Critics,
+    /// Target critics, on the plain device.
+    pub(crate) critic_targets: Critics,
+    pub(crate) actor_optim: ModuleOptimizer,
+    pub(crate) critic_optim: ModuleOptimizer,
+}
+
+impl Nets {
+    /// Every parameter id of `kind`, `(weight, bias)` per layer.
+    pub(crate) fn ids(&self, kind: NetworkGroup) -> Vec<(ParamId, ParamId)> {
+        match kind {
+            NetworkGroup::Actors => self.actors.ids(),
+            NetworkGroup::Critics => self.critics.nets.iter().flat_map(StackedMlp::ids).collect(),
+        }
+    }
+
+    /// The trunk parameter ids of `kind` (every critic's, critic by critic).
+    pub(crate) fn trunk_ids(&self, kind: NetworkGroup) -> Vec<(ParamId, ParamId)> {
+        match kind {
+            NetworkGroup::Actors => self.actors.trunk_ids(),
+            NetworkGroup::Critics => self.critics.nets.iter().flat_map(StackedMlp::trunk_ids).collect(),
+        }
+    }
+
+    /// The stacks of `kind` (the actors, or each critic).
+    pub(crate) fn stacks(&mut self, kind: NetworkGroup) -> Vec<&mut StackedMlp> {
+        match kind {
+            NetworkGroup::Actors => vec![&mut self.actors],
+            NetworkGroup::Critics => self.critics.nets.iter_mut().collect(),
+        }
+    }
+
+    fn gradients(&self, kind: NetworkGroup, loss: Tensor<1>) -> GradientsParams {
+        match kind {
+            NetworkGroup::Actors => GradientsParams::from_grads(loss.backward(), &self.actors),
+            NetworkGroup::Critics => GradientsParams::from_grads(loss.backward(), &self.critics),
+        }
+    }
+
+    /// One Adam step of the networks of `kind`.
+    pub(crate) fn optimize(&mut self, kind: NetworkGroup, lr: f64, grads: GradientsParams) {
+        match kind {
+            NetworkGroup::Actors => self.actors = self.actor_optim.step(lr, self.actors.clone(), grads),
+            NetworkGroup::Critics => self.critics = self.critic_optim.step(lr, self.critics.clone(), grads),
+        }
+    }
+
+    /// The losses `[A]` of `kind` read back, and one backward pass of their
+    /// sum; with `fused` the optimiser steps at once and no gradients are returned.
+    pub(crate) fn step(
+        &mut self,
+        kind: NetworkGroup,
+        loss: Tensor<1>,
+        lr: f64,
+        fused: bool,
+    ) -> Result<(Vec<f32>, Option<GradientsParams>), NnError> {
+        let values = to_vec1(loss.clone(), "loss")?;
+        let grads = self.gradients(kind, loss.sum());
+        if fused {
+            self.optimize(kind, lr, grads);
+            return Ok((values, None));
+        }
+        Ok((values, Some(grads)))
+    }
+}
+
+/// Constant tensors that place a group's padded action blocks in the
+/// agent-major joint action of all agents, on the plain device.
+#[derive(Clone)]
+pub(crate) struct Joint {
+    /// `[A, d_max, action_dim]`: `select[i][k][off_i + k] = 1` for `k < d_i`.
+    select: Tensor<3>,
+    /// `[A, 1, action_dim]`: 1 on the columns of every agent but `i`.
+    others: Tensor<3>,
+    /// `[A, 1, d_max]`: 1 on agent `i`'s first `d_i` columns.
+    pub(crate) mask: Tensor<3>,
+    /// `[A]`: `1 / d_i`.
+    pub(crate) inv_dim: Tensor<1>,
+}
+
+impl Joint {
+    /// For agents of action widths `dims` whose blocks start at `offsets` in a
+    /// joint action of `width` columns.
+    pub(crate) fn new(dims: &[usize], offsets: &[usize], width: usize, device: &Device) -> Self {
+        let (a, dmax) = (dims.len(), dims.iter().copied().max().unwrap_or(0));
+        let mut select = vec![0.0f32; a * dmax * width];
+        let mut others = vec![1.0f32; a * width];
+        let mut mask = vec![0.0f32; a * dmax];
+        for (i, (&d, &off)) in dims.iter().zip(offsets).enumerate() {
+            for k in 0..d {
+                select[(i * dmax + k) * width + off + k] = 1.0;
+                others[i * width + off + k] = 0.0;
+                mask[i * dmax + k] = 1.0;
+            }
+        }
+        let inv = dims.iter().map(|&d| 1.0 / d as f32).collect::<Vec<_>>();
+        Self {
+            select: Tensor::from_data(TensorData::new(select, [a, dmax, width]), device),
+            others: Tensor::from_data(TensorData::new(others, [a, 1, width]), device),
+            mask: Tensor::from_data(TensorData::new(mask, [a, 1, dmax]), device),
+            inv_dim: Tensor::from_data(TensorData::new(inv, [a]), device),
+        }
+    }
+
+    /// The group's share `[n, action_dim]` of the joint action for its agents'
+    /// actions `mu: [A, n, d_max]` (zero outside the group's columns).
+    pub(crate) fn join(&self, mu: Tensor<3>) -> Tensor<2> {
+        let [_, n, _] = mu.dims();
+        let width = self.select.dims()[2];
+        mu.matmul(self.select.clone()).sum_dim(0).reshape([n, width])
+    }
+
+    /// Every agent's critic input `[A, n, obs + goal + action_dim]` on the
+    /// autodiff device: `[x, g]` and the sampled joint action with agent `i`'s
+    /// block replaced by its `mu_i` (`mu: [A, n, d_max]`, with gradient).
+    pub(crate) fn with_own(&self, mu: Tensor<3>, og: &Tensor<2>, actions: &Tensor<2>) -> Tensor<3> {
+        let [a, n, _] = mu.dims();
+        let ogd = og.dims()[1];
+        let sampled = Tensor::from_inner(actions.clone().unsqueeze_dim::<3>(0) * self.others.clone());
+        let joint = mu.matmul(Tensor::from_inner(self.select.clone())) + sampled;
+        let og = Tensor::from_inner(og.clone().unsqueeze_dim::<3>(0).expand([a, n, ogd]));
+        Tensor::cat(vec![og, joint], 2)
+    }
+}
+
+/// A group's share of a sampled batch, on the device.
+#[derive(Clone)]
+pub(crate) struct GroupBatch {
+    /// Its agents' normalised actor inputs at `t`, zero-padded: `[A, n, in_max]`.
+    pub(crate) x_now: Tensor<3>,
+    /// The same at `t + 1`.
+    pub(crate) x_next: Tensor<3>,
+    /// Its agents' rewards, `[A, n, 1]`.
+    pub(crate) rewards: Tensor<3>,
+    /// Its agents' Q-target bounds `[lo, hi] / (1 - gamma)` (`clip_return`), `[A, 1, 1]` each.
+    pub(crate) lo: Tensor<3>,
+    pub(crate) hi: Tensor<3>,
+}
+
+/// A group of agents `agents` (contiguous) with stacked networks.
+#[derive(Clone)]
+pub(crate) struct Group {
+    pub(crate) agents: Range<usize>,
+    pub(crate) nets: Nets,
+    pub(crate) actor_layout: StackLayout,
+    pub(crate) critic_layout: StackLayout,
+    pub(crate) joint: Joint,
+    /// The host copy of the actors that rollouts act with, made lazily after each update phase.
+    pub(crate) act_cache: Option<StackedMlp>,
+}
+
+/// What a group's networks are built from.
+pub(crate) struct GroupSpec<'a> {
+    /// Each agent's actor input width.
+    pub(crate) inputs: &'a [usize],
+    /// Each agent's action width.
+    pub(crate) actions: &'a [usize],
+    /// The critics' input width.
+    pub(crate) critic_input: usize,
+    pub(crate) hidden: usize,
+    pub(crate) layers: usize,
+    pub(crate) seed: u64,
+    pub(crate) critics: usize,
+    pub(crate) head_mult: usize,
+    /// Whether information sharing mixes the actors' / critics' trunks (they then start equal).
+    pub(crate) same_trunks: (bool, bool),
+    pub(crate) adam: AdamConfig,
+}
+
+/// First parameter id of network kind `kind` (0 actors, 1 target actors,
+/// `2 + 2c` critic `c`, `3 + 2c` its target) of group `g`.
+fn id_base(g: usize, kind: u64) -> u64 {
+    ((g as u64 + 1) << 24) | (kind << 16)
+}
+
+/// With `same`, every agent starts from `first`'s trunk (agent 0's of all
+/// agents), so mixing begins at consensus.
+fn set_trunks(flats: &mut [Vec<f32>], layout: &StackLayout, first: &[f32], first_shape: &crate::NetShape, same: bool) {
+    if !same {
+        return;
+    }
+    let r0 = first_shape.trunk();
+    for (flat, shape) in flats.iter_mut().zip(&layout.shapes) {
+        let r = shape.trunk();
+        if r.len() == r0.len() {
+            flat[r].copy_from_slice(&first[r0.clone()]);
+        }
+    }
+}
+
+impl Group {
+    /// The networks of agents `agents`, each initialised as the per-agent
+    /// network of the same seed: agent `i`'s actor from ChaCha8 stream `8i`,
+    /// its critic `c` from `8i + 1 + 2c`. Online networks on the autodiff twin
+    /// of `device`, targets on `device`.
+    pub(crate) fn new(g: usize, agents: Range<usize>, spec: &GroupSpec<'_>, width: usize, device: &Device) -> Self {
+        let ad_device = device.clone().autodiff();
+        let r = agents.clone();
+        let actor = |range: Range<usize>| {
+            StackedMlpConfig::new(
+                spec.inputs[range.clone()].to_vec(),
+                spec.hidden,
+                spec.layers,
+                spec.actions[range.clone()].to_vec(),
+            )
+            .with_head_mult(spec.head_mult)
+            .with_seed(spec.seed)
+            .with_streams(range.map(|i| 8 * i as u64).collect())
+        };
+        let critic = |range: Range<usize>, c: usize| {
+            StackedMlpConfig::new(vec![spec.critic_input; range.len()], spec.hidden, spec.layers, vec![1; range.len()])
+                .with_seed(spec.seed)
+                .with_streams(range.map(|i| 8 * i as u64 + 1 + 2 * c as u64).collect())
+        };
+        let (actor_config, actor0) = (actor(r.clone()), actor(0..1));
+        let (actor_layout, critic_layout) = (actor_config.layout(), critic(r.clone(), 0).layout());
+        let mut actor_flats = actor_config.initial();
+        set_trunks(
+            &mut actor_flats,
+            &actor_layout,
+            &actor0.initial()[0],
+            &actor0.layout().shapes[0],
+            spec.same_trunks.0,
+        );
+        let critic_flats: Vec<Vec<Vec<f32>>> = (0..spec.critics)
+            .map(|c| {
+                let (config, first) = (critic(r.clone(), c), critic(0..1, c));
+                let mut f = config.initial();
+                set_trunks(&mut f, &critic_layout, &first.initial()[0], &first.layout().shapes[0], spec.same_trunks.1);
+                f
+            })
+            .collect();
+        let critics_on = |dev: &Device, kind: u64| Critics {
+            nets: critic_flats
+                .iter()
+                .enumerate()
+                .map(|(c, f)| StackedMlp::from_flats(&critic_layout, f, dev, id_base(g, kind + 2 * c as u64)))
+                .collect(),
+        };
+        let nets = Nets {
+            actors: StackedMlp::from_flats(&actor_layout, &actor_flats, &ad_device, id_base(g, 0)),
+            actor_targets: StackedMlp::from_flats(&actor_layout, &actor_flats, device, id_base(g, 1)),
+            critics: critics_on(&ad_device, 2),
+            critic_targets: critics_on(device, 3),
+            actor_optim: spec.adam.init(),
+            critic_optim: spec.adam.init(),
+        };
+        let offsets: Vec<usize> = r.clone().map(|i| spec.actions[..i].iter().sum()).collect();
+        let joint = Joint::new(&spec.actions[r.clone()], &offsets, width, device);
+        Self { agents, nets, actor_layout, critic_layout, joint, act_cache: None }
+    }
+
+    /// Number of agents.
+    pub(crate) fn len(&self) -> usize {
+        self.agents.len()
+    }
+
+    /// The group's agents' padded action width.
+    pub(crate) fn max_action(&self) -> usize {
+        self.joint.mask.dims()[2]
+    }
+
+    /// The actors' input width (padded).
+    pub(crate) fn input_width(&self) -> usize {
+        self.actor_layout.stacked.layers[0].0
+    }
+
+    /// Rebuilds a stack of this group from every agent's flat parameters, with `like`'s ids and device.
+    pub(crate) fn rebuild(layout: &StackLayout, flats: &[Vec<f32>], like: &StackedMlp) -> StackedMlp {
+        let device = like.layers[0].weight.val().device();
+        StackedMlp::from_flats(layout, flats, &device, like.layers[0].weight.id.val())
+    }
+}
+
+/// Reads a 1-d tensor back to the host.
+pub(crate) fn to_vec1(t: Tensor<1>, what: &'static str) -> Result<Vec<f32>, NnError> {
+    t.inner().into_data().try_into_vec::<f32>().map_err(|e| NnError::Backend { what, reason: format!("{e:?}") })
+}
