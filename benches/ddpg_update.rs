@@ -1,7 +1,12 @@
 //! One joint DDPG update of the 6 Shadow Hand agents at the paper's sizes
 //! (action dims [2, 3, 3, 3, 4, 5] = 20, global observation 153, goal 7,
-//! actor inputs 65..179, batch 256, 3 x 256 hidden layers, Adam), on one and
-//! on two threads, and action selection for one observation.
+//! actor inputs 65..179, batch 256 and the paper's 1024, 3 x 256 hidden
+//! layers, Adam), on one and on two threads, and action selection for one
+//! observation.
+//!
+//! The networks live on `FMSR_DEVICE` (default `cpu`; `wgpu:0`, `wgpu:cpu`
+//! or `vulkan:0` with the matching cargo feature, see `fmsr_nn::device`),
+//! stacked as `FMSR_STACKING` says (`auto`, default; `per_agent`; `all`).
 //!
 //! Run with `cargo bench --bench ddpg_update`. With `FMSR_PYTORCH_REFERENCE=1`
 //! it also runs `scripts/pytorch_reference/run.sh` (a venv with the PyTorch
@@ -17,9 +22,9 @@ use fmsr_core::agent::{Batch, ObservationLayout};
 use fmsr_core::policy::{ActMode, Policy};
 use fmsr_core::replay::ReplayConfig;
 use fmsr_core::spec::{AgentSpec, EnvSpec};
-use fmsr_nn::{LearnerParts, Maddpg, MaddpgConfig, NetworkConfig};
+use fmsr_nn::{LearnerParts, Maddpg, MaddpgConfig, NetworkConfig, Stacking};
 
-const BATCH: usize = 256;
+const BATCHES: [usize; 2] = [256, 1024];
 const ACTION_DIMS: [usize; 6] = [2, 3, 3, 3, 4, 5];
 /// Local observation dims: wrist, index, middle, ring, little, thumb.
 const LOCAL_DIMS: [usize; 6] = [60, 52, 52, 52, 58, 165];
@@ -67,9 +72,8 @@ fn values(len: usize, salt: usize) -> Vec<f32> {
         .collect()
 }
 
-fn batch(layout: &ObservationLayout) -> Batch {
+fn batch(layout: &ObservationLayout, n: usize) -> Batch {
     let spec = layout.spec();
-    let n = BATCH;
     let na = spec.num_agents();
     Batch {
         size: n,
@@ -85,9 +89,21 @@ fn batch(layout: &ObservationLayout) -> Batch {
     }
 }
 
+/// The device named by `FMSR_DEVICE` (default `cpu`).
+fn device() -> fmsr_nn::Device {
+    let name = std::env::var("FMSR_DEVICE").unwrap_or_else(|_| "cpu".into());
+    name.parse::<fmsr_nn::DeviceSpec>().and_then(|d| d.device()).unwrap_or_else(|e| panic!("FMSR_DEVICE: {e}"))
+}
+
+/// The agent stacking named by `FMSR_STACKING` (default `auto`).
+fn stacking() -> Stacking {
+    let name = std::env::var("FMSR_STACKING").unwrap_or_else(|_| "auto".into());
+    serde_json::from_value(serde_json::Value::String(name)).unwrap_or_else(|e| panic!("FMSR_STACKING: {e}"))
+}
+
 fn learner(threads: usize) -> Maddpg {
-    let net = NetworkConfig::new().with_threads(threads);
-    let parts = LearnerParts::new(layout(), net, ReplayConfig::default(), 0.99);
+    let net = NetworkConfig::new().with_threads(threads).with_stacking(stacking());
+    let parts = LearnerParts::new(layout(), net, ReplayConfig::default(), 0.99).with_device(device());
     Maddpg::new(parts, MaddpgConfig::new()).expect("a valid learner")
 }
 
@@ -96,17 +112,19 @@ const BOUNDS: [(f32, f32); 6] = [(-100.0, 0.0); 6];
 
 fn joint_update(c: &mut Criterion) {
     let layout = layout();
-    let b = batch(&layout);
-    let mut group = c.benchmark_group("ddpg_joint_update_6_agents_b256_3x256");
-    group.sample_size(20);
-    group.throughput(Throughput::Elements(1));
-    for threads in [1, 2] {
-        let mut l = learner(threads);
-        group.bench_function(format!("threads_{threads}"), |bench| {
-            bench.iter(|| black_box(l.learn_batch(black_box(&b), &BOUNDS).expect("learn")));
-        });
+    for n in BATCHES {
+        let b = batch(&layout, n);
+        let mut group = c.benchmark_group(format!("ddpg_joint_update_6_agents_b{n}_3x256"));
+        group.sample_size(10);
+        group.throughput(Throughput::Elements(1));
+        for threads in [1, 2] {
+            let mut l = learner(threads);
+            group.bench_function(format!("threads_{threads}"), |bench| {
+                bench.iter(|| black_box(l.learn_batch(black_box(&b), &BOUNDS).expect("learn")));
+            });
+        }
+        group.finish();
     }
-    group.finish();
 
     let mut l = learner(2);
     let inputs: Vec<Vec<f32>> = (0..6).map(|i| values(layout.actor_input_dim(i), 40 + i)).collect();
@@ -118,7 +136,7 @@ fn joint_update(c: &mut Criterion) {
 /// Our updates/s over `iters` joint updates after a warm-up.
 fn our_rate(threads: usize, iters: usize) -> f64 {
     let layout = layout();
-    let b = batch(&layout);
+    let b = batch(&layout, 256);
     let mut l = learner(threads);
     for _ in 0..3 {
         l.learn_batch(&b, &BOUNDS).expect("learn");

@@ -11,7 +11,8 @@
 //!
 //! The last line is `speedup X.XX` of setting 2 over setting 1.
 //!
-//! `cargo bench --bench paper_epoch`
+//! `cargo bench --bench paper_epoch`; `FMSR_DEVICE=wgpu:0` (with `--features
+//! wgpu`) puts the networks on a GPU.
 
 use std::time::Instant;
 
@@ -32,6 +33,9 @@ fn time_cycles(cycles: usize, envs: usize, threads: usize, learner_threads: usiz
     config.trainer.envs = Some(envs);
     config.trainer.threads = Some(threads);
     config.networks.threads = learner_threads;
+    if let Ok(device) = std::env::var("FMSR_DEVICE") {
+        config.device = device;
+    }
     let hands = (0..envs).map(|_| config.env_config().init()).collect::<Result<Vec<_>, _>>().context("Shadow Hand")?;
     let mut trainer = config.build_trainer(hands)?;
     let start = Instant::now();

@@ -3,9 +3,13 @@ fmsr-nn's DdpgLearner::learn (benches/ddpg_update.rs): per agent a critic
 update (target actors of all agents, target critic, clipped target, MSE,
 Adam) then an actor update (-Q + action_l2 * mean(mu^2), Adam), batch 256,
 3 x 256 hidden layers, action dims [2, 3, 3, 3, 4, 5], global obs 153, goal 7,
-actor inputs as in the bench. Prints `updates/s threads=T: X`.
+actor inputs as in the bench. Prints `updates/s threads=T: X` on the CPU.
+
+`update.py [iters] [--device cuda] [--batch 256,1024]`: on CUDA it times each
+batch size (device work synchronised before the clock is read) and prints
+`updates/s device=cuda batch=N: X`.
 """
-import sys
+import argparse
 import time
 
 import torch
@@ -33,7 +37,7 @@ def mlp(i, o, out_act=None):
     return nn.Sequential(*layers)
 
 
-def main():
+def build(device, B):
     torch.manual_seed(0)
     in_dims = [LOCAL_DIMS[i] + GOAL + sum(ACTION_DIMS[j] for j in NEIGHBOURS[i]) for i in range(6)]
     cin = OBS + GOAL + A
@@ -41,18 +45,21 @@ def main():
     critics = [mlp(cin, 1) for _ in range(6)]
     t_actors = [mlp(d, a, nn.Tanh()) for d, a in zip(in_dims, ACTION_DIMS)]
     t_critics = [mlp(cin, 1) for _ in range(6)]
+    for net in actors + critics + t_actors + t_critics:
+        net.to(device)
     for t, o in zip(t_actors + t_critics, actors + critics):
         t.load_state_dict(o.state_dict())
         for p in t.parameters():
             p.requires_grad_(False)
     a_opt = [torch.optim.Adam(a.parameters(), lr=1e-3, eps=1e-8) for a in actors]
     c_opt = [torch.optim.Adam(c.parameters(), lr=1e-3, eps=1e-8) for c in critics]
-    og = torch.rand(B, OBS + GOAL) * 2 - 1
-    og_next = torch.rand(B, OBS + GOAL) * 2 - 1
-    acts = torch.rand(B, A) * 2 - 1
-    x = [torch.rand(B, d) * 2 - 1 for d in in_dims]
-    x_next = [torch.rand(B, d) * 2 - 1 for d in in_dims]
-    r = [torch.rand(B, 1) - 2 for _ in range(6)]
+    rand = lambda *shape: torch.rand(*shape, device=device)
+    og = rand(B, OBS + GOAL) * 2 - 1
+    og_next = rand(B, OBS + GOAL) * 2 - 1
+    acts = rand(B, A) * 2 - 1
+    x = [rand(B, d) * 2 - 1 for d in in_dims]
+    x_next = [rand(B, d) * 2 - 1 for d in in_dims]
+    r = [rand(B, 1) - 2 for _ in range(6)]
     offs = [sum(ACTION_DIMS[:i]) for i in range(6)]
 
     def update():
@@ -79,17 +86,38 @@ def main():
             for p in critics[i].parameters():
                 p.requires_grad_(True)
 
-    iters = int(sys.argv[1]) if len(sys.argv) > 1 else 30
-    for threads in (1, 2):
-        torch.set_num_threads(threads)
-        for _ in range(3):
-            update()
-        start = time.perf_counter()
-        for _ in range(iters):
-            update()
-        rate = iters / (time.perf_counter() - start)
-        print(f"updates/s threads={threads}: {rate:.3f}", flush=True)
-    print(f"torch {torch.__version__}, batch {B}, hidden {LAYERS}x{HIDDEN}, 6 agents", flush=True)
+    return update
+
+
+def rate(update, iters, sync):
+    for _ in range(3):
+        update()
+    sync()
+    start = time.perf_counter()
+    for _ in range(iters):
+        update()
+    sync()
+    return iters / (time.perf_counter() - start)
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("iters", nargs="?", type=int, default=30)
+    parser.add_argument("--device", default="cpu")
+    parser.add_argument("--batch", default=str(B))
+    args = parser.parse_args()
+    batches = [int(b) for b in args.batch.split(",")]
+    if args.device == "cpu":
+        update = build("cpu", batches[0])
+        for threads in (1, 2):
+            torch.set_num_threads(threads)
+            print(f"updates/s threads={threads}: {rate(update, args.iters, lambda: None):.3f}", flush=True)
+    else:
+        for b in batches:
+            update = build(args.device, b)
+            r = rate(update, args.iters, torch.cuda.synchronize)
+            print(f"updates/s device={args.device} batch={b}: {r:.3f} ({1e3 / r:.2f} ms)", flush=True)
+    print(f"torch {torch.__version__}, batches {batches}, hidden {LAYERS}x{HIDDEN}, 6 agents", flush=True)
 
 
 if __name__ == "__main__":
