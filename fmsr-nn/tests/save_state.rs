@@ -1,9 +1,9 @@
 //! Guards `Algorithm::save_state` / `load_state` of every learner: save ->
 //! load into a fresh learner (another seed) gives the same exploring actions
 //! (the RNG is restored), the same next update's losses and the same state bit
-//! for bit; the replay travels only when asked; a state of another shape or
-//! algorithm, truncated or corrupted bytes are `NnError`s that leave the
-//! learner unchanged.
+//! for bit, whatever the agents' stacking; the replay travels only when
+//! asked; a state of another shape, algorithm or stacking, truncated or
+//! corrupted bytes are `NnError`s that leave the learner unchanged.
 
 mod common;
 
@@ -29,7 +29,8 @@ fn net(seed: u64) -> NetworkConfig {
 fn round_trip_is_bit_exact_for_every_algorithm() {
     let layout = common::layout(&[2, 3, 1], 7, 3);
     let rewards = common::L1Rewards(3);
-    for kind in AlgorithmKind::ALL {
+    for (kind, stacking) in AlgorithmKind::ALL.into_iter().flat_map(|k| [(k, Stacking::PerAgent), (k, Stacking::All)]) {
+        let net = |seed| net(seed).with_stacking(stacking);
         let mut a = build(kind, &layout, net(21));
         for e in 0..2 {
             a.store(&common::episode(&layout, e)).unwrap();
@@ -40,9 +41,9 @@ fn round_trip_is_bit_exact_for_every_algorithm() {
         b.load_state(&bytes).unwrap();
         let x = common::inputs(&layout, 4, 7);
         let (xa, xb) = (a.act(&x, 4, ActMode::Explore).unwrap(), b.act(&x, 4, ActMode::Explore).unwrap());
-        assert_eq!(format!("{xa:?}"), format!("{xb:?}"), "{kind:?}");
+        assert_eq!(format!("{xa:?}"), format!("{xb:?}"), "{kind:?} {stacking:?}");
         let (sa, sb) = (a.update(&rewards).unwrap(), b.update(&rewards).unwrap());
-        assert_eq!(sa, sb, "{kind:?}");
+        assert_eq!(sa, sb, "{kind:?} {stacking:?}");
         // (The bytes themselves may differ: burn keys optimiser states by a hash map.)
         let (xa, xb) = (a.act(&x, 4, ActMode::Explore).unwrap(), b.act(&x, 4, ActMode::Explore).unwrap());
         assert_eq!(format!("{xa:?}"), format!("{xb:?}"), "{kind:?} after an update");
@@ -89,6 +90,11 @@ fn bad_states_are_errors() {
     assert!(err.to_string().contains("agents"), "{err}");
     let mut td3 = Matd3::new(common::parts(&layout, net(21), 0.9), Matd3Config::new()).unwrap();
     assert!(matches!(td3.load_state(&bytes), Err(NnError::StateMismatch { .. })));
+    // Another grouping of the agents: the optimiser records do not map.
+    let all = net(21).with_stacking(Stacking::All);
+    let mut stacked = Maddpg::new(common::parts(&layout, all, 0.9), MaddpgConfig::new()).unwrap();
+    let err = stacked.load_state(&bytes).unwrap_err();
+    assert!(err.to_string().contains("networks.stacking"), "{err}");
 
     // Nothing was changed by the failed loads.
     assert_eq!(snapshot(&fresh), before);
