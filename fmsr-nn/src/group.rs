@@ -49,11 +49,19 @@ impl Nets {
         }
     }
 
-    /// The stacks of `kind` (the actors, or each critic).
-    pub(crate) fn stacks(&mut self, kind: NetworkGroup) -> Vec<&mut StackedMlp> {
+    /// The number of stacks of `kind` (1 for the actors, one per critic).
+    pub(crate) fn copies(&self, kind: NetworkGroup) -> usize {
         match kind {
-            NetworkGroup::Actors => vec![&mut self.actors],
-            NetworkGroup::Critics => self.critics.nets.iter_mut().collect(),
+            NetworkGroup::Actors => 1,
+            NetworkGroup::Critics => self.critics.nets.len(),
+        }
+    }
+
+    /// Stack `c` of `kind` (the actors, or critic `c`).
+    pub(crate) fn stack_mut(&mut self, kind: NetworkGroup, c: usize) -> &mut StackedMlp {
+        match kind {
+            NetworkGroup::Actors => &mut self.actors,
+            NetworkGroup::Critics => &mut self.critics.nets[c],
         }
     }
 
@@ -200,17 +208,15 @@ fn id_base(g: usize, kind: u64) -> u64 {
     ((g as u64 + 1) << 24) | (kind << 16)
 }
 
-/// With `same`, every agent starts from `first`'s trunk (agent 0's of all
-/// agents), so mixing begins at consensus.
-fn set_trunks(flats: &mut [Vec<f32>], layout: &StackLayout, first: &[f32], first_shape: &crate::NetShape, same: bool) {
-    if !same {
-        return;
-    }
-    let r0 = first_shape.trunk();
+/// Every agent starts from the trunk of `first`, the network of agent 0 of
+/// all agents, so mixing begins at consensus.
+fn set_trunks(flats: &mut [Vec<f32>], layout: &StackLayout, first: &StackedMlpConfig) {
+    let (flat0, shape0) = (&first.initial()[0], &first.layout().shapes[0]);
+    let trunk0 = &flat0[shape0.trunk()];
     for (flat, shape) in flats.iter_mut().zip(&layout.shapes) {
         let r = shape.trunk();
-        if r.len() == r0.len() {
-            flat[r].copy_from_slice(&first[r0.clone()]);
+        if r.len() == trunk0.len() {
+            flat[r].copy_from_slice(trunk0);
         }
     }
 }
@@ -239,21 +245,18 @@ impl Group {
                 .with_seed(spec.seed)
                 .with_streams(range.map(|i| 8 * i as u64 + 1 + 2 * c as u64).collect())
         };
-        let (actor_config, actor0) = (actor(r.clone()), actor(0..1));
+        let actor_config = actor(r.clone());
         let (actor_layout, critic_layout) = (actor_config.layout(), critic(r.clone(), 0).layout());
         let mut actor_flats = actor_config.initial();
-        set_trunks(
-            &mut actor_flats,
-            &actor_layout,
-            &actor0.initial()[0],
-            &actor0.layout().shapes[0],
-            spec.same_trunks.0,
-        );
+        if spec.same_trunks.0 {
+            set_trunks(&mut actor_flats, &actor_layout, &actor(0..1));
+        }
         let critic_flats: Vec<Vec<Vec<f32>>> = (0..spec.critics)
             .map(|c| {
-                let (config, first) = (critic(r.clone(), c), critic(0..1, c));
-                let mut f = config.initial();
-                set_trunks(&mut f, &critic_layout, &first.initial()[0], &first.layout().shapes[0], spec.same_trunks.1);
+                let mut f = critic(r.clone(), c).initial();
+                if spec.same_trunks.1 {
+                    set_trunks(&mut f, &critic_layout, &critic(0..1, c));
+                }
                 f
             })
             .collect();
@@ -290,12 +293,6 @@ impl Group {
     /// The actors' input width (padded).
     pub(crate) fn input_width(&self) -> usize {
         self.actor_layout.stacked.layers[0].0
-    }
-
-    /// Rebuilds a stack of this group from every agent's flat parameters, with `like`'s ids and device.
-    pub(crate) fn rebuild(layout: &StackLayout, flats: &[Vec<f32>], like: &StackedMlp) -> StackedMlp {
-        let device = like.layers[0].weight.val().device();
-        StackedMlp::from_flats(layout, flats, &device, like.layers[0].weight.id.val())
     }
 }
 

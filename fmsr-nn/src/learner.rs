@@ -192,9 +192,9 @@ impl SharedParameters for Shared<'_> {
     type Error = NnError;
 
     fn consensus_step(&mut self, kind: NetworkGroup, mixing: &MixingMatrix) -> Result<(), NnError> {
-        let copies = self.groups.first_mut().map_or(0, |g| g.nets.stacks(kind).len());
+        let copies = self.groups.first().map_or(0, |g| g.nets.copies(kind));
         for c in 0..copies {
-            let stacks = self.groups.iter_mut().map(|g| g.nets.stacks(kind).swap_remove(c)).collect();
+            let stacks = self.groups.iter_mut().map(|g| g.nets.stack_mut(kind, c)).collect();
             mix_stacks(stacks, mixing)?;
         }
         Ok(())
@@ -348,7 +348,7 @@ impl Learner {
             let x = self.padded_inputs(g, inputs, n);
             let group = &mut self.groups[g];
             if group.act_cache.is_none() {
-                group.act_cache = Some(group.nets.actors.copy_to(&host)?);
+                group.act_cache = Some(group.nets.actors.copy_to(&host));
             }
             let actors =
                 group.act_cache.as_ref().ok_or(NnError::Backend { what: "actors", reason: "no host copy".into() })?;
@@ -683,7 +683,7 @@ impl Learner {
         check_values(|| format!("actor trunk of agent {agent}"), trunk, range.len())?;
         let mut flats = group.nets.actors.to_flats(&group.actor_layout)?;
         flats[k][range].copy_from_slice(trunk);
-        group.nets.actors = Group::rebuild(&group.actor_layout, &flats, &group.nets.actors);
+        group.nets.actors = group.nets.actors.with_flats(&group.actor_layout, &flats);
         group.act_cache = None;
         Ok(())
     }

@@ -43,8 +43,9 @@
 //! burn 0.22 chooses the backend by the device: [`LearnerParts::new`] uses
 //! `Device::flex()` (pure-Rust CPU); [`LearnerParts::with_device`] takes any
 //! burn device compiled in, such as the GPUs of the `wgpu` and `vulkan`
-//! features, named by the strings of [`DeviceSpec`] ([`device`]). Gradients are taken on the device's `.autodiff()`
-//! twin; acting and the target networks run on the plain device.
+//! features, named by the strings of [`DeviceSpec`] ([`device`]). Gradients
+//! are taken on the device's `.autodiff()` twin; the target networks run on
+//! the plain device, acting on a `flex` copy of the actors.
 //!
 //! # Example
 //!

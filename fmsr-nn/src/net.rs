@@ -1,6 +1,7 @@
-//! The networks: every agent's actor (or critic) as one burn module whose
-//! layers hold all agents at once, built once by [`StackedMlpConfig::init`]
-//! on a device and living there across updates.
+//! The networks: the actors (or critics) of a group of agents as one burn
+//! module whose layers hold all of them at once ([`crate::Stacking`] chooses
+//! the groups), built once by [`StackedMlpConfig::init`] on a device and
+//! living there across updates.
 //!
 //! Layer `k` of `A` agents is one weight `W_k: [A, in_k, out_k]` and one bias
 //! `b_k: [A, 1, out_k]`; for inputs `X: [A, n, in_k]` (or `[1, n, in_k]`,
@@ -11,7 +12,7 @@
 //! ```
 //!
 //! so the kernels of a forward or backward pass, of an Adam step, of polyak
-//! averaging and of a consensus step do not grow with the number of agents.
+//! averaging and of a consensus step do not grow with the agents of a stack.
 //!
 //! Agents whose actors differ in input or output width are padded to the
 //! widest: agent `i`'s input occupies the first `in_i` rows of the input
@@ -388,20 +389,25 @@ impl StackedMlp {
 
     /// The same stack on `device` as plain (no autodiff) tensors: the host
     /// copy the rollouts act with.
-    ///
-    /// # Errors
-    /// [`NnError::Backend`] if the device cannot read the parameters back.
-    pub fn copy_to(&self, device: &Device) -> Result<Self, NnError> {
-        let copy = |p: &Param<Tensor<3>>| -> Result<Param<Tensor<3>>, NnError> {
-            let data = p.val().inner().into_data();
-            Ok(Param::initialized(p.id, Tensor::<3>::from_data(data, device)))
+    #[must_use]
+    pub fn copy_to(&self, device: &Device) -> Self {
+        let copy = |p: &Param<Tensor<3>>| {
+            Param::initialized(p.id, Tensor::<3>::from_data(p.val().inner().into_data(), device))
         };
-        let layers = self
-            .layers
-            .iter()
-            .map(|l| Ok(StackedLinear { weight: copy(&l.weight)?, bias: copy(&l.bias)? }))
-            .collect::<Result<_, NnError>>()?;
-        Ok(Self { layers })
+        Self {
+            layers: self
+                .layers
+                .iter()
+                .map(|l| StackedLinear { weight: copy(&l.weight), bias: copy(&l.bias) })
+                .collect(),
+        }
+    }
+
+    /// The same stack (ids, device) holding every agent's `flats`, laid out by `layout`.
+    #[must_use]
+    pub fn with_flats(&self, layout: &StackLayout, flats: &[Vec<f32>]) -> Self {
+        let first = &self.layers[0].weight;
+        Self::from_flats(layout, flats, &first.val().device(), first.id.val())
     }
 }
 

@@ -192,13 +192,13 @@ impl Learner {
 fn restore_group(group: &mut Group, agents: &[AgentState]) {
     let column = |f: &dyn Fn(&AgentState) -> Vec<f32>| agents.iter().map(f).collect::<Vec<_>>();
     let nets = &mut group.nets;
-    nets.actors = Group::rebuild(&group.actor_layout, &column(&|a| a.actor.clone()), &nets.actors);
-    nets.actor_targets = Group::rebuild(&group.actor_layout, &column(&|a| a.actor_target.clone()), &nets.actor_targets);
+    nets.actors = nets.actors.with_flats(&group.actor_layout, &column(&|a| a.actor.clone()));
+    nets.actor_targets = nets.actor_targets.with_flats(&group.actor_layout, &column(&|a| a.actor_target.clone()));
     for c in 0..nets.critics.nets.len() {
         let online = column(&|a| a.critics[c].clone());
         let target = column(&|a| a.critic_targets[c].clone());
-        nets.critics.nets[c] = Group::rebuild(&group.critic_layout, &online, &nets.critics.nets[c]);
-        nets.critic_targets.nets[c] = Group::rebuild(&group.critic_layout, &target, &nets.critic_targets.nets[c]);
+        nets.critics.nets[c] = nets.critics.nets[c].with_flats(&group.critic_layout, &online);
+        nets.critic_targets.nets[c] = nets.critic_targets.nets[c].with_flats(&group.critic_layout, &target);
     }
     group.act_cache = None;
 }
