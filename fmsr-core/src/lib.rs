@@ -85,7 +85,7 @@ pub use collector::Collector;
 pub use env::{ContactReadout, Env};
 pub use error::CoreError;
 pub use occupancy::OccupancyEstimator;
-pub use policy::{ActMode, Policy};
+pub use policy::{ActMode, Policy, PolicyState};
 pub use shadow::ShadowReward;
 
 /// The items most users need.
@@ -101,7 +101,7 @@ pub mod prelude {
         StabilityRow,
     };
     pub use crate::occupancy::{Averaging, DiscountedOccupancy, OccupancyEstimator};
-    pub use crate::policy::{ActMode, Policy, PolicyOutput};
+    pub use crate::policy::{ActMode, Policy, PolicyOutput, PolicyState};
     pub use crate::replay::{Episode, HerConfig, ReplayBuffer, ReplayConfig};
     pub use crate::shadow::{AgentReward, AgentRewards, LogUtility, RewardAssignment, ShadowMode, ShadowReward};
     pub use crate::sharing::{InformationSharing, NetworkGroup, SharedParameters};

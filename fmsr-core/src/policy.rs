@@ -64,3 +64,21 @@ pub trait Policy {
     /// `n` rows of agent `i`'s actor input, row major.
     fn act(&mut self, inputs: &[Vec<f32>], n: usize, mode: ActMode) -> Result<PolicyOutput, Self::Error>;
 }
+
+/// A policy whose acting half can be saved and restored on its own, without
+/// what only learning needs (critics, targets, optimisers, replay): what a
+/// trained policy file (`fmsr export`) carries.
+///
+/// A separate ability, not part of [`crate::Algorithm`], so an algorithm of
+/// your own need not offer it.
+pub trait PolicyState: Policy {
+    /// The acting state (for the learners of `fmsr-nn`: every agent's actor
+    /// and its input normaliser) as bytes.
+    fn save_policy(&self) -> Result<Vec<u8>, Self::Error>;
+
+    /// Restores a state written by [`PolicyState::save_policy`]; after it the
+    /// policy acts as the saved one did in [`ActMode::Evaluate`]. A state of
+    /// another shape or algorithm, or corrupted bytes, is an error and changes
+    /// nothing.
+    fn load_policy(&mut self, bytes: &[u8]) -> Result<(), Self::Error>;
+}

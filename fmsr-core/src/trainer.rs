@@ -739,6 +739,41 @@ struct CheckpointMeta<O> {
     rank: usize,
 }
 
+/// What a checkpoint holds for a reader that does not train: how far the run
+/// got and the algorithm's state (e.g. to take its policy out, `fmsr export`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckpointContents {
+    /// Epochs trained when the checkpoint was written.
+    pub epoch: usize,
+    /// Env steps collected by then (this worker's).
+    pub env_steps: u64,
+    /// The algorithm's state ([`Algorithm::save_state`] without storage).
+    pub algorithm: Vec<u8>,
+}
+
+/// Reads worker 0's checkpoint file written by [`Trainer::save_checkpoint`]
+/// without building a trainer (any occupancy estimator, any configuration).
+///
+/// # Errors
+/// [`CoreError::Io`]; [`CoreError::Corrupt`] for a file that is not a
+/// checkpoint of this build, truncated or corrupted.
+pub fn read_checkpoint_contents(path: &Path) -> Result<CheckpointContents, CoreError> {
+    #[derive(Deserialize)]
+    struct Progress {
+        epoch: usize,
+    }
+    #[derive(Deserialize)]
+    struct Meta {
+        state: Progress,
+        env_steps: u64,
+    }
+    let corrupt = |reason: String| CoreError::Corrupt { path: path.into(), reason };
+    let bytes = std::fs::read(path).map_err(|source| CoreError::Io { path: path.into(), source })?;
+    let file: CheckpointFile = persist::decode(MAGIC, VERSION, &bytes).map_err(|e| corrupt(e.to_string()))?;
+    let meta: Meta = serde_json::from_str(&file.meta).map_err(|e| corrupt(e.to_string()))?;
+    Ok(CheckpointContents { epoch: meta.state.epoch, env_steps: meta.env_steps, algorithm: file.algorithm })
+}
+
 /// What one worker contributes to a checkpoint: its checkpoint file and its
 /// new replay segment (name and bytes).
 #[derive(Serialize, Deserialize)]

@@ -1,7 +1,7 @@
 //! One of the learners, chosen at run time (the `algorithm` key of an experiment).
 
 use fmsr_core::algorithm::{Algorithm, RewardModel, UpdateStats};
-use fmsr_core::policy::{ActMode, Policy, PolicyOutput};
+use fmsr_core::policy::{ActMode, Policy, PolicyOutput, PolicyState};
 use fmsr_core::replay::Episode;
 use serde::{Deserialize, Serialize};
 
@@ -117,5 +117,15 @@ impl Algorithm for AnyLearner {
 
     fn restore_storage(&mut self, total: u64, episodes: &[Episode]) -> Result<(), NnError> {
         each!(self, l => l.restore_storage(total, episodes))
+    }
+}
+
+impl PolicyState for AnyLearner {
+    fn save_policy(&self) -> Result<Vec<u8>, NnError> {
+        each!(self, l => l.save_policy())
+    }
+
+    fn load_policy(&mut self, bytes: &[u8]) -> Result<(), NnError> {
+        each!(self, l => l.load_policy(bytes))
     }
 }

@@ -95,13 +95,15 @@ pub use masac::Masac;
 pub use matd3::Matd3;
 pub use net::{Critics, NetShape, StackLayout, StackedLinear, StackedMlp, StackedMlpConfig};
 pub use normalizer::Normalizer;
+pub use state::policy_from_learner_state;
 
 /// Everything needed for typical use: `use fmsr_nn::prelude::*;`.
 pub mod prelude {
     pub use crate::{
         AlgorithmKind, AnyLearner, Device, DeviceSpec, LearnerParts, Maddpg, MaddpgConfig, Masac, MasacConfig, Matd3,
         Matd3Config, NetShape, NetworkConfig, NnError, Normalizer, StackedMlp, StackedMlpConfig, Stacking,
+        policy_from_learner_state,
     };
     pub use fmsr_core::algorithm::Algorithm;
-    pub use fmsr_core::policy::{ActMode, Policy};
+    pub use fmsr_core::policy::{ActMode, Policy, PolicyState};
 }

@@ -17,7 +17,7 @@ use burn::tensor::Tensor;
 use burn::tensor::activation::tanh;
 use fmsr_core::agent::Batch;
 use fmsr_core::algorithm::{Algorithm, RewardModel, UpdateStats};
-use fmsr_core::policy::{ActMode, Policy, PolicyOutput};
+use fmsr_core::policy::{ActMode, Policy, PolicyOutput, PolicyState};
 use fmsr_core::replay::Episode;
 
 use crate::config::{MaddpgConfig, Teammates};
@@ -278,5 +278,15 @@ impl Algorithm for Maddpg {
 
     fn restore_storage(&mut self, total: u64, episodes: &[Episode]) -> Result<(), NnError> {
         self.learner.restore_storage(total, episodes)
+    }
+}
+
+impl PolicyState for Maddpg {
+    fn save_policy(&self) -> Result<Vec<u8>, NnError> {
+        self.learner.save_policy("maddpg")
+    }
+
+    fn load_policy(&mut self, bytes: &[u8]) -> Result<(), NnError> {
+        self.learner.load_policy("maddpg", bytes)
     }
 }

@@ -22,7 +22,7 @@ use burn::module::Module;
 use burn::tensor::activation::softplus;
 use burn::tensor::{Tensor, TensorData};
 use fmsr_core::algorithm::{Algorithm, RewardModel, UpdateStats};
-use fmsr_core::policy::{ActMode, Policy, PolicyOutput};
+use fmsr_core::policy::{ActMode, Policy, PolicyOutput, PolicyState};
 use fmsr_core::replay::Episode;
 use serde::{Deserialize, Serialize};
 
@@ -279,5 +279,15 @@ impl Algorithm for Masac {
 
     fn restore_storage(&mut self, total: u64, episodes: &[Episode]) -> Result<(), NnError> {
         self.learner.restore_storage(total, episodes)
+    }
+}
+
+impl PolicyState for Masac {
+    fn save_policy(&self) -> Result<Vec<u8>, NnError> {
+        self.learner.save_policy("masac")
+    }
+
+    fn load_policy(&mut self, bytes: &[u8]) -> Result<(), NnError> {
+        self.learner.load_policy("masac", bytes)
     }
 }

@@ -11,7 +11,7 @@
 //! `policy_delay` critic steps; targets move once per cycle.
 
 use fmsr_core::algorithm::{Algorithm, RewardModel, UpdateStats};
-use fmsr_core::policy::{ActMode, Policy, PolicyOutput};
+use fmsr_core::policy::{ActMode, Policy, PolicyOutput, PolicyState};
 use fmsr_core::replay::Episode;
 
 use crate::config::Matd3Config;
@@ -114,5 +114,15 @@ impl Algorithm for Matd3 {
 
     fn restore_storage(&mut self, total: u64, episodes: &[Episode]) -> Result<(), NnError> {
         self.learner.restore_storage(total, episodes)
+    }
+}
+
+impl PolicyState for Matd3 {
+    fn save_policy(&self) -> Result<Vec<u8>, NnError> {
+        self.learner.save_policy("matd3")
+    }
+
+    fn load_policy(&mut self, bytes: &[u8]) -> Result<(), NnError> {
+        self.learner.load_policy("matd3", bytes)
     }
 }

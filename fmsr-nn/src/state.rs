@@ -247,3 +247,111 @@ fn state_mismatch(i: usize, what: &str, e: NnError) -> NnError {
         other => other,
     }
 }
+
+/// The magic number of a policy state ([`Learner::save_policy`]).
+const POLICY_MAGIC: &[u8; 8] = b"FMSRNNPO";
+
+/// The version of [`PolicyState`]'s layout.
+const POLICY_FORMAT: u32 = 1;
+
+/// The acting half of a learner: each agent's actor, in its own
+/// [`crate::NetShape`] layout, and its input normaliser. No critics, targets,
+/// optimiser state, RNG or replay: what a trained policy file carries, and
+/// independent of the stacking and the device it was trained with.
+#[derive(Serialize, Deserialize)]
+struct PolicyState {
+    algorithm: String,
+    actors: Vec<ActorState>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct ActorState {
+    actor: Vec<f32>,
+    actor_norm: Normalizer,
+}
+
+fn decode_policy(bytes: &[u8]) -> Result<PolicyState, NnError> {
+    persist::decode(POLICY_MAGIC, POLICY_FORMAT, bytes)
+        .map_err(|e| NnError::CorruptState { offset: 0, reason: format!("policy state: {e}") })
+}
+
+fn encode_policy(state: &PolicyState) -> Result<Vec<u8>, NnError> {
+    persist::encode(POLICY_MAGIC, POLICY_FORMAT, state)
+        .map_err(|e| NnError::Backend { what: "policy state", reason: e.to_string() })
+}
+
+/// The policy state ([`fmsr_core::policy::PolicyState::save_policy`]) held in
+/// a whole learner state (`Algorithm::save_state`, as a checkpoint stores it):
+/// every agent's actor and input normaliser, without building a learner, so a
+/// run trained with any stacking or device exports on any machine.
+///
+/// # Errors
+/// [`NnError::CorruptState`] when `learner_state` is not a learner state of this build.
+pub fn policy_from_learner_state(learner_state: &[u8]) -> Result<Vec<u8>, NnError> {
+    let state: LearnerState = decode(learner_state)?;
+    let actors = state.agents.into_iter().map(|a| ActorState { actor: a.actor, actor_norm: a.actor_norm }).collect();
+    encode_policy(&PolicyState { algorithm: state.algorithm, actors })
+}
+
+impl Learner {
+    /// The acting state alone: every agent's actor and input normaliser.
+    pub(crate) fn save_policy(&self, algorithm: &str) -> Result<Vec<u8>, NnError> {
+        let mut actors = Vec::with_capacity(self.num_agents());
+        for group in &self.groups {
+            let flats = group.nets.actors.to_flats(&group.actor_layout)?;
+            for (flat, i) in flats.into_iter().zip(group.agents.clone()) {
+                actors.push(ActorState { actor: flat, actor_norm: self.actor_norms[i].clone() });
+            }
+        }
+        encode_policy(&PolicyState { algorithm: algorithm.to_owned(), actors })
+    }
+
+    /// Restores a state written by [`Learner::save_policy`] (or
+    /// [`policy_from_learner_state`]): the actors (their targets set equal)
+    /// and their normalisers; critics, optimisers, RNG and replay stay as
+    /// they are. Everything is checked before anything changes.
+    pub(crate) fn load_policy(&mut self, algorithm: &str, bytes: &[u8]) -> Result<(), NnError> {
+        let state = decode_policy(bytes)?;
+        if state.algorithm != algorithm {
+            return Err(NnError::StateMismatch {
+                what: "algorithm".into(),
+                expected: algorithm.into(),
+                found: state.algorithm,
+            });
+        }
+        if state.actors.len() != self.num_agents() {
+            return Err(NnError::StateMismatch {
+                what: "agents".into(),
+                expected: self.num_agents().to_string(),
+                found: state.actors.len().to_string(),
+            });
+        }
+        for (i, a) in state.actors.iter().enumerate() {
+            self.check_actor_state(i, a)?;
+        }
+        for group in &mut self.groups {
+            let flats: Vec<Vec<f32>> = state.actors[group.agents.clone()].iter().map(|a| a.actor.clone()).collect();
+            let nets = &mut group.nets;
+            nets.actors = nets.actors.with_flats(&group.actor_layout, &flats);
+            nets.actor_targets = nets.actor_targets.with_flats(&group.actor_layout, &flats);
+            group.act_cache = None;
+        }
+        self.actor_norms = state.actors.into_iter().map(|a| a.actor_norm).collect();
+        Ok(())
+    }
+
+    /// Checks agent `i`'s saved actor and normaliser against this learner's shapes.
+    fn check_actor_state(&self, i: usize, a: &ActorState) -> Result<(), NnError> {
+        let (g, k) = self.locate(i)?;
+        let expected = self.groups[g].actor_layout.shapes[k].num_params();
+        check_values(|| format!("agent {i} actor"), &a.actor, expected).map_err(|e| state_mismatch(i, "actor", e))?;
+        if a.actor_norm.dim() != self.actor_norms[i].dim() {
+            return Err(NnError::StateMismatch {
+                what: format!("agent {i} actor normaliser"),
+                expected: self.actor_norms[i].dim().to_string(),
+                found: a.actor_norm.dim().to_string(),
+            });
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,90 @@
+//! Guards `PolicyState::save_policy` / `load_policy` (the actors of a trained
+//! policy file, issue 30): a policy saved by one learner and loaded into a
+//! fresh one (another seed, another stacking) acts the same in evaluation, for
+//! every algorithm; the policy taken from a whole learner state equals the one
+//! saved by the learner; a policy of another shape or algorithm, or corrupted
+//! bytes, is an `NnError` that leaves the learner unchanged.
+
+mod common;
+
+use fmsr_core::agent::ObservationLayout;
+use fmsr_core::replay::ReplayConfig;
+use fmsr_nn::prelude::*;
+
+fn build(kind: AlgorithmKind, layout: &ObservationLayout, net: NetworkConfig) -> AnyLearner {
+    let replay = ReplayConfig { batch_size: 16, batches: 2, ..ReplayConfig::default() };
+    let parts = LearnerParts::new(layout.clone(), net, replay, 0.9);
+    match kind {
+        AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new()).unwrap()),
+        AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, Matd3Config::new()).unwrap()),
+        AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, MasacConfig::new()).unwrap()),
+    }
+}
+
+fn net(seed: u64, stacking: Stacking) -> NetworkConfig {
+    NetworkConfig::new().with_hidden(24).with_layers(2).with_seed(seed).with_stacking(stacking)
+}
+
+/// A learner of `kind` after two cycles of learning.
+fn trained(kind: AlgorithmKind, layout: &ObservationLayout, stacking: Stacking) -> AnyLearner {
+    let rewards = common::L1Rewards(layout.spec().agents.len());
+    let mut a = build(kind, layout, net(21, stacking));
+    for e in 0..2 {
+        a.store(&common::episode(layout, e)).unwrap();
+        a.update(&rewards).unwrap();
+    }
+    a
+}
+
+#[test]
+fn a_loaded_policy_acts_as_the_saved_one() {
+    let layout = common::layout(&[2, 3, 1], 7, 3);
+    let x = common::inputs(&layout, 4, 7);
+    for kind in AlgorithmKind::ALL {
+        for (from, to) in [(Stacking::PerAgent, Stacking::All), (Stacking::All, Stacking::PerAgent)] {
+            let mut a = trained(kind, &layout, from);
+            let policy = a.save_policy().unwrap();
+            let mut b = build(kind, &layout, net(99, to));
+            assert_ne!(
+                format!("{:?}", a.act(&x, 4, ActMode::Evaluate).unwrap()),
+                format!("{:?}", b.act(&x, 4, ActMode::Evaluate).unwrap()),
+                "{kind:?}: the fresh learner must act differently before the load"
+            );
+            b.load_policy(&policy).unwrap();
+            let (xa, xb) = (a.act(&x, 4, ActMode::Evaluate).unwrap(), b.act(&x, 4, ActMode::Evaluate).unwrap());
+            assert_eq!(format!("{xa:?}"), format!("{xb:?}"), "{kind:?} {from:?} -> {to:?}");
+            // The policy inside a checkpoint's learner state is the same policy.
+            let from_state = policy_from_learner_state(&a.save_state(false).unwrap()).unwrap();
+            assert_eq!(from_state, policy, "{kind:?} {from:?}");
+        }
+    }
+}
+
+#[test]
+fn bad_policies_are_errors_that_change_nothing() {
+    let layout = common::layout(&[2, 3, 1], 7, 3);
+    let policy = trained(AlgorithmKind::Maddpg, &layout, Stacking::PerAgent).save_policy().unwrap();
+    let x = common::inputs(&layout, 2, 3);
+    let mut fresh = build(AlgorithmKind::Maddpg, &layout, net(5, Stacking::PerAgent));
+    let before = format!("{:?}", fresh.act(&x, 2, ActMode::Evaluate).unwrap());
+
+    let mut flipped = policy.clone();
+    let mid = flipped.len() / 2;
+    flipped[mid] ^= 0x10;
+    for bad in [&flipped[..], &policy[..policy.len() - 3], b"hello", &[]] {
+        assert!(matches!(fresh.load_policy(bad), Err(NnError::CorruptState { .. })));
+    }
+    // A whole learner state is not a policy state.
+    let state = fresh.save_state(false).unwrap();
+    assert!(matches!(fresh.load_policy(&state), Err(NnError::CorruptState { .. })));
+
+    let wide = build(AlgorithmKind::Maddpg, &layout, net(5, Stacking::PerAgent).with_hidden(32));
+    let other_layout = common::layout(&[2, 3], 7, 3);
+    let fewer = build(AlgorithmKind::Maddpg, &other_layout, net(5, Stacking::PerAgent));
+    let td3 = build(AlgorithmKind::Matd3, &layout, net(5, Stacking::PerAgent));
+    for (mut learner, what) in [(wide, "actor"), (fewer, "agents"), (td3, "algorithm")] {
+        let err = learner.load_policy(&policy).unwrap_err();
+        assert!(matches!(err, NnError::StateMismatch { .. }) && err.to_string().contains(what), "{err}");
+    }
+    assert_eq!(format!("{:?}", fresh.act(&x, 2, ActMode::Evaluate).unwrap()), before);
+}
