@@ -13,6 +13,7 @@ use fmsr_core::metrics::{
 use fmsr_core::prelude::*;
 
 use crate::experiment::{Engine, ExperimentConfig, ExperimentError};
+use crate::policy_file::Source;
 use crate::run::RunDir;
 
 /// The per-step series of one test episode (the paper's Fig. 4).
@@ -182,6 +183,13 @@ impl EvalReport {
         }
     }
 
+    /// Whether `other` has the same results: everything but the wall time
+    /// (every episode's outcome, final angle and grasp measures, the trace).
+    #[must_use]
+    pub fn same_results(&self, other: &EvalReport) -> bool {
+        *self == EvalReport { seconds: self.seconds, ..other.clone() }
+    }
+
     /// Both tables for this run.
     #[must_use]
     pub fn to_markdown(&self) -> String {
@@ -243,9 +251,38 @@ pub fn evaluate_run_on<E: Env + ContactReadout + Send>(
     dir: &RunDir,
     dt: f64,
 ) -> Result<EvalReport, ExperimentError> {
+    let report = evaluate_source_on(config, env, engine, &Source::Run(dir.clone()), dt)?;
+    write_eval(&report, &dir.eval_json_on(engine, config.engine))?;
+    Ok(report)
+}
+
+/// Writes an evaluation as JSON, atomically.
+///
+/// # Errors
+/// I/O errors.
+pub fn write_eval(report: &EvalReport, path: &std::path::Path) -> Result<(), ExperimentError> {
+    let json = serde_json::to_vec_pretty(report)
+        .map_err(|e| ExperimentError::Config { key: "eval".into(), reason: e.to_string() })?;
+    Ok(fmsr_core::trainer::write_atomic(path, &json)?)
+}
+
+/// Evaluates the policy of `source` (a run's last checkpoint or a policy
+/// file) on `env`, an environment of `engine`, on the fixed test set of
+/// `config.eval` (`config` is `source`'s, possibly with fewer episodes), and
+/// returns the evaluation without writing it.
+///
+/// # Errors
+/// The errors of the policy, the environment and the grasp measures.
+pub fn evaluate_source_on<E: Env + ContactReadout + Send>(
+    config: &ExperimentConfig,
+    env: E,
+    engine: Engine,
+    source: &Source,
+    dt: f64,
+) -> Result<EvalReport, ExperimentError> {
     let start = Instant::now();
     let mut trainer = config.build_trainer(vec![env])?;
-    trainer.load_checkpoint_without_storage(&dir.checkpoint())?;
+    let epochs = source.load_into(&mut trainer)?;
     let seeds = config.eval.seeds();
     let threshold = config.eval.threshold;
     let mut outcomes = FailureCounts::new();
@@ -297,7 +334,7 @@ pub fn evaluate_run_on<E: Env + ContactReadout + Send>(
         task: format!("{:?}", config.env.object).to_lowercase(),
         engine: engine.key().into(),
         trained_on: Some(config.engine.key().into()),
-        epochs: trainer.epoch(),
+        epochs,
         episodes: seeds.len(),
         threshold,
         success_rate: outcomes.success_rate().unwrap_or(0.0),
@@ -310,8 +347,5 @@ pub fn evaluate_run_on<E: Env + ContactReadout + Send>(
         trace: first_trace.unwrap_or_default(),
         seconds: start.elapsed().as_secs_f64(),
     };
-    let json = serde_json::to_vec_pretty(&report)
-        .map_err(|e| ExperimentError::Config { key: "eval".into(), reason: e.to_string() })?;
-    fmsr_core::trainer::write_atomic(&dir.eval_json_on(engine, config.engine), &json)?;
     Ok(report)
 }

@@ -25,6 +25,8 @@ pub mod evaluate;
 pub mod experiment;
 #[cfg(feature = "mpi")]
 pub mod mpi;
+pub mod policy_file;
+pub mod provenance;
 pub mod render;
 pub mod report;
 pub mod run;

@@ -3,11 +3,15 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
+use std::io::IsTerminal;
+use std::time::Instant;
+
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use fmsr::experiment::{Engine, ExperimentConfig};
+use fmsr::policy_file::{POLICY_FILE_NAME, PolicyFile, Source};
 use fmsr::run::{self, RunDir};
 use fmsr_core::prelude::*;
 
@@ -23,11 +27,13 @@ struct Cli {
 enum Command {
     /// Train one experiment; writes config, logs and a checkpoint per epoch to the run directory.
     Train(TrainArgs),
-    /// Evaluate a trained run on the fixed test set (success, contacts, grasp measures, failure types).
+    /// Evaluate a trained run or policy file on the fixed test set (success, contacts, grasp measures, failure types).
     Eval(EvalArgs),
+    /// Write a trained run's policy alone (actors, normalisers, config, commit, evaluations) into one file.
+    Export(ExportArgs),
     /// Write the paper's tables and figures over several runs (Tables I and II, Figs. 3 and 4).
     Report(ReportArgs),
-    /// Draw one test episode of a trained run's policy as an animated GIF (or PNG frames), headless.
+    /// Draw one test episode of a trained run's or policy file's policy as an animated GIF (or PNG frames), headless.
     Render(RenderArgs),
     /// The main job: train the default experiment (block, Dense+FMSR+IS, rapier, quick budget),
     /// evaluate it and write the report.
@@ -73,11 +79,14 @@ struct TrainArgs {
     /// Continue the run in the run directory from its last checkpoint.
     #[arg(long)]
     resume: bool,
+    /// No progress bar or per-epoch lines.
+    #[arg(long)]
+    quiet: bool,
 }
 
 #[derive(Debug, clap::Args)]
 struct EvalArgs {
-    /// The run directory to evaluate.
+    /// The run directory, policy file (`fmsr export`) or directory holding `policy.fmsr` to evaluate.
     run: PathBuf,
     /// Test episodes, overriding the config (paper: 100).
     #[arg(long)]
@@ -87,11 +96,25 @@ struct EvalArgs {
     /// cross-engine table.
     #[arg(long, value_enum)]
     engine: Option<EngineArg>,
+    /// Write the evaluation (JSON) here instead: by default a run's goes into
+    /// its directory, a policy file's is only printed and compared with the
+    /// evaluation the file carries.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+#[derive(Debug, clap::Args)]
+struct ExportArgs {
+    /// The trained run directory.
+    run: PathBuf,
+    /// The policy file to write (default `RUN/policy.fmsr`).
+    #[arg(long)]
+    out: Option<PathBuf>,
 }
 
 #[derive(Debug, clap::Args)]
 struct ReportArgs {
-    /// Run directories (each trained, and evaluated for the tables).
+    /// Run directories or policy files (each trained, and evaluated for the tables).
     #[arg(required = true)]
     runs: Vec<PathBuf>,
     /// Where to write summary.md, the tables and the PNG figures.
@@ -101,7 +124,7 @@ struct ReportArgs {
 
 #[derive(Debug, clap::Args)]
 struct RenderArgs {
-    /// The run directory (its last checkpoint plays the episode).
+    /// The run directory (its last checkpoint plays the episode), or a policy file.
     run: PathBuf,
     /// Which episode of the fixed test set (0-based).
     #[arg(long, default_value_t = 0)]
@@ -109,7 +132,8 @@ struct RenderArgs {
     /// Simulate on this engine (default: the one the run trained on).
     #[arg(long, value_enum)]
     engine: Option<EngineArg>,
-    /// A `.gif` file, or a directory for PNG frames (default `RUN/render/episode-K-ENGINE.gif`).
+    /// A `.gif` file, or a directory for PNG frames (default `RUN/render/episode-K-ENGINE.gif`,
+    /// for a policy file `render/` beside it).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Frame width (pixels).
@@ -128,6 +152,13 @@ struct RunArgs {
     /// Run directory (default `runs/<name>`); an existing run there is resumed.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// No progress bar or per-epoch lines.
+    #[arg(long)]
+    quiet: bool,
+    /// Where shipped policies are looked for: the report sets the run beside
+    /// those of the same configuration.
+    #[arg(long, default_value = "pretrained")]
+    pretrained: PathBuf,
 }
 
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
@@ -150,6 +181,7 @@ fn main() -> Result<()> {
     match cli.command {
         Command::Train(args) => train(&args).map(|_| ()),
         Command::Eval(args) => eval(&args),
+        Command::Export(args) => export(&args),
         Command::Report(args) => report(&args.runs, &args.out),
         Command::Render(args) => {
             for file in render(&args)? {
@@ -177,10 +209,20 @@ fn main() -> Result<()> {
                 epochs: None,
                 resume: RunDir::new(&out).checkpoint().exists(),
                 out: Some(out),
+                quiet: args.quiet,
             };
             let dir = train(&train_args)?;
-            eval(&EvalArgs { run: dir.root().to_path_buf(), episodes: None, engine: None })?;
-            report(&[dir.root().to_path_buf()], &dir.root().join("report"))?;
+            eval(&EvalArgs { run: dir.root().to_path_buf(), episodes: None, engine: None, out: None })?;
+            let config = dir.load_config()?;
+            let mut runs = vec![dir.root().to_path_buf()];
+            runs.extend(fmsr::policy_file::matching_policies(&args.pretrained, &config));
+            report(&runs, &dir.root().join("report"))?;
+            if runs.len() > 1 {
+                println!(
+                    "the report sets the run beside the shipped policy of its configuration: {}",
+                    runs[1].display()
+                );
+            }
             println!("run, logs and evaluation in {}", dir.root().display());
             Ok(())
         }
@@ -221,23 +263,55 @@ fn resolve_config(args: &TrainArgs) -> Result<(ExperimentConfig, RunDir, bool)> 
     Ok((config, dir, resume))
 }
 
-fn progress_bar(config: &ExperimentConfig, done: usize) -> ProgressBar {
-    let bar = ProgressBar::new(config.trainer.epochs as u64);
-    bar.set_style(
-        ProgressStyle::with_template("{prefix} [{bar:30}] epoch {pos}/{len} ETA {eta} {msg}")
-            .expect("a valid template")
-            .progress_chars("=> "),
-    );
-    bar.set_prefix(format!("{} ({})", config.name, config.method.label()));
-    bar.set_position(done as u64);
-    bar
+/// How training shows its progress: a bar on a terminal, one line per epoch
+/// in a log (stderr not a terminal), nothing with `--quiet` or on other MPI ranks.
+enum Progress {
+    Bar(ProgressBar),
+    Lines { total: usize, start: Instant, timed: usize },
+    Quiet,
 }
 
-fn epoch_message(s: &EpochStats) -> String {
-    format!(
-        "success {:.2} | train {:.2} | {:.0} steps/s | {:.1} updates/s",
-        s.success_rate, s.train_success_rate, s.env_steps_per_sec, s.updates_per_sec
-    )
+impl Progress {
+    fn new(config: &ExperimentConfig, done: usize, show: bool) -> Self {
+        if !show {
+            return Self::Quiet;
+        }
+        if !std::io::stderr().is_terminal() {
+            return Self::Lines { total: config.trainer.epochs, start: Instant::now(), timed: 0 };
+        }
+        let bar = ProgressBar::new(config.trainer.epochs as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{prefix} [{bar:30}] epoch {pos}/{len} ETA {eta} {msg}")
+                .expect("a valid template")
+                .progress_chars("=> "),
+        );
+        bar.set_prefix(format!("{} ({})", config.name, config.method.label()));
+        bar.set_position(done as u64);
+        Self::Bar(bar)
+    }
+
+    fn epoch(&mut self, s: &EpochStats) {
+        match self {
+            Self::Bar(bar) => {
+                bar.set_message(format!(
+                    "success {:.2} | train {:.2} | {:.0} steps/s | {:.1} updates/s",
+                    s.success_rate, s.train_success_rate, s.env_steps_per_sec, s.updates_per_sec
+                ));
+                bar.inc(1);
+            }
+            Self::Lines { total, start, timed } => {
+                *timed += 1;
+                eprintln!("{}", run::epoch_line(s, *total, start.elapsed().as_secs_f64(), *timed));
+            }
+            Self::Quiet => {}
+        }
+    }
+
+    fn finish(&self) {
+        if let Self::Bar(bar) = self {
+            bar.finish();
+        }
+    }
 }
 
 /// `fmsr train`: in this process, or as one rank of an `mpirun` job.
@@ -289,11 +363,8 @@ fn train_with(args: &TrainArgs, comm: Arc<dyn Communicator>) -> Result<RunDir> {
             eprintln!("on {} MPI ranks", comm.workers());
         }
     }
-    let bar = if rank == 0 { progress_bar(&config, done) } else { ProgressBar::hidden() };
-    let on_epoch = |s: &EpochStats| {
-        bar.set_message(epoch_message(s));
-        bar.inc(1);
-    };
+    let mut progress = Progress::new(&config, done, rank == 0 && !args.quiet);
+    let on_epoch = |s: &EpochStats| progress.epoch(s);
     match config.engine {
         Engine::Rapier => {
             let envs = (0..config.trainer.worker_envs(comm.workers())?)
@@ -313,13 +384,13 @@ fn train_with(args: &TrainArgs, comm: Arc<dyn Communicator>) -> Result<RunDir> {
         #[cfg(not(feature = "mujoco"))]
         Engine::Mujoco => return Err(fmsr::experiment::ExperimentError::EngineUnavailable.into()),
     }
-    bar.finish();
+    progress.finish();
     Ok(dir)
 }
 
 fn eval(args: &EvalArgs) -> Result<()> {
-    let dir = RunDir::new(&args.run);
-    let mut config = dir.load_config().context("reading the run's config.toml")?;
+    let source = Source::open(&args.run)?;
+    let mut config = source.config().context("reading the run's config.toml")?;
     if let Some(n) = args.episodes {
         config.eval.episodes = n;
     }
@@ -329,39 +400,85 @@ fn eval(args: &EvalArgs) -> Result<()> {
     let summary = match engine {
         Engine::Rapier => {
             let env = config.env_config().init().context("building the rapier Shadow Hand")?;
-            fmsr::evaluate::evaluate_run_on(&config, env, engine, &dir, dt)?
+            fmsr::evaluate::evaluate_source_on(&config, env, engine, &source, dt)?
         }
         #[cfg(feature = "mujoco")]
         Engine::Mujoco => {
             let env = config.env_config().init_mujoco(Default::default()).context("building the MuJoCo Shadow Hand")?;
-            fmsr::evaluate::evaluate_run_on(&config, env, engine, &dir, dt)?
+            fmsr::evaluate::evaluate_source_on(&config, env, engine, &source, dt)?
         }
         #[cfg(not(feature = "mujoco"))]
         Engine::Mujoco => return Err(fmsr::experiment::ExperimentError::EngineUnavailable.into()),
     };
     println!("{}", summary.to_markdown());
-    println!("evaluation written to {}", dir.eval_json_on(engine, config.engine).display());
+    let out = match &source {
+        Source::Run(dir) => Some(args.out.clone().unwrap_or_else(|| dir.eval_json_on(engine, config.engine))),
+        Source::Policy { .. } => args.out.clone(),
+    };
+    if let Some(out) = out {
+        fmsr::evaluate::write_eval(&summary, &out)?;
+        println!("evaluation written to {}", out.display());
+    }
+    if let Source::Policy { file, path } = &source {
+        match file.eval_on(engine) {
+            Some(recorded) if recorded.same_results(&summary) => println!(
+                "{}: the same results as the evaluation the file carries (every episode's outcome and final angle)",
+                path.display()
+            ),
+            Some(recorded) => println!(
+                "{}: differs from the evaluation the file carries ({:.0}% now, {:.0}% recorded over {} episodes)",
+                path.display(),
+                100.0 * summary.success_rate,
+                100.0 * recorded.success_rate,
+                recorded.episodes
+            ),
+            None => println!("{}: the file carries no evaluation on {} to compare with", path.display(), engine.key()),
+        }
+    }
+    Ok(())
+}
+
+fn export(args: &ExportArgs) -> Result<()> {
+    let dir = RunDir::new(&args.run);
+    let file = PolicyFile::from_run(&dir).with_context(|| format!("exporting {}", dir.root().display()))?;
+    let out = args.out.clone().unwrap_or_else(|| dir.root().join(POLICY_FILE_NAME));
+    file.write(&out)?;
+    if file.evals.is_empty() {
+        eprintln!("note: the run has no evaluation (run `fmsr eval` on it first), so the file carries none");
+    }
+    if file.provenance.commit.is_none() {
+        eprintln!("note: the run names no commit (it predates provenance.json, or was not started in a git checkout)");
+    }
+    let bytes = std::fs::metadata(&out).map_or(0, |m| m.len());
+    println!(
+        "wrote {} ({:.1} MB: {} after {} epochs, commit {})",
+        out.display(),
+        bytes as f64 / 1e6,
+        file.config.label(),
+        file.epochs,
+        file.provenance.commit_label()
+    );
     Ok(())
 }
 
 fn render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
-    use fmsr::render::{RenderTarget, record_episode};
-    let dir = RunDir::new(&args.run);
-    let config = dir.load_config().context("reading the run's config.toml")?;
+    use fmsr::render::{RenderTarget, record_source_episode};
+    let source = Source::open(&args.run)?;
+    let config = source.config().context("reading the run's config.toml")?;
     let engine = args.engine.map_or(config.engine, Engine::from);
     let target = match &args.out {
         Some(out) => RenderTarget::from_path(out)?,
-        None => RenderTarget::default_for(&dir, args.episode, engine),
+        None => RenderTarget::default_for(&RunDir::new(source.home()), args.episode, engine),
     };
     let film = match engine {
         Engine::Rapier => {
             let env = config.env_config().init().context("building the rapier Shadow Hand")?;
-            record_episode(&config, env, engine, &dir, args.episode)?
+            record_source_episode(&config, env, engine, &source, args.episode)?
         }
         #[cfg(feature = "mujoco")]
         Engine::Mujoco => {
             let env = config.env_config().init_mujoco(Default::default()).context("building the MuJoCo Shadow Hand")?;
-            record_episode(&config, env, engine, &dir, args.episode)?
+            record_source_episode(&config, env, engine, &source, args.episode)?
         }
         #[cfg(not(feature = "mujoco"))]
         Engine::Mujoco => return Err(fmsr::experiment::ExperimentError::EngineUnavailable.into()),
@@ -375,10 +492,11 @@ fn render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
 /// (the report shows its frame strip and links the GIF).
 fn render_for_report(runs: &[PathBuf]) {
     for run in runs {
-        let dir = RunDir::new(run);
-        let Ok(config) = dir.load_config() else { continue };
-        let target = fmsr::render::RenderTarget::default_for(&dir, 0, config.engine);
-        if target.strip_path().is_some_and(|p| p.exists()) || !dir.checkpoint().exists() {
+        let Ok(source) = Source::open(run) else { continue };
+        let Ok(config) = source.config() else { continue };
+        let target = fmsr::render::RenderTarget::default_for(&RunDir::new(source.home()), 0, config.engine);
+        let untrained = matches!(&source, Source::Run(dir) if !dir.checkpoint().exists());
+        if target.strip_path().is_some_and(|p| p.exists()) || untrained {
             continue;
         }
         let args = RenderArgs { run: run.clone(), episode: 0, engine: None, out: None, width: 320, height: 240 };
@@ -394,7 +512,7 @@ fn report(runs: &[PathBuf], out: &std::path::Path) -> Result<()> {
     render_for_report(runs);
     let records = runs
         .iter()
-        .map(|r| fmsr::report::RunRecord::load(r).with_context(|| format!("reading the run {}", r.display())))
+        .map(|r| fmsr::report::RunRecord::open(r).with_context(|| format!("reading the run {}", r.display())))
         .collect::<Result<Vec<_>>>()?;
     let files = fmsr::report::write_report(&records, out)?;
     println!("report written to {} ({} figures)", files.summary.display(), files.figures.len());

@@ -20,6 +20,7 @@ use fmsr_envs::shadow_hand::{HandPhysics, ShadowHand, fetch_hand_assets};
 
 use crate::evaluate::classify;
 use crate::experiment::{Engine, ExperimentConfig, ExperimentError};
+use crate::policy_file::Source;
 use crate::run::RunDir;
 
 /// Frames are drawn this many times larger, then averaged down (anti-aliasing).
@@ -75,13 +76,28 @@ pub fn record_episode<P: HandPhysics + Send>(
     dir: &RunDir,
     episode: usize,
 ) -> Result<EpisodeFilm, ExperimentError> {
+    record_source_episode(config, env, engine, &Source::Run(dir.clone()), episode)
+}
+
+/// As [`record_episode`] with the policy of `source`: a run's last checkpoint
+/// or a policy file (`config` is `source`'s).
+///
+/// # Errors
+/// As [`record_episode`].
+pub fn record_source_episode<P: HandPhysics + Send>(
+    config: &ExperimentConfig,
+    env: ShadowHand<P>,
+    engine: Engine,
+    source: &Source,
+    episode: usize,
+) -> Result<EpisodeFilm, ExperimentError> {
     let seeds = config.eval.seeds();
     let seed = *seeds.get(episode).ok_or_else(|| ExperimentError::Config {
         key: "episode".into(),
         reason: format!("episode {episode} is not in the test set of {} episodes (0..{})", seeds.len(), seeds.len()),
     })?;
     let mut trainer = config.build_trainer(vec![env])?;
-    trainer.load_checkpoint_without_storage(&dir.checkpoint())?;
+    source.load_into(&mut trainer)?;
     let (mut views, mut angle_errors) = (Vec::new(), Vec::new());
     let played = trainer.rollout_with(seed, ActMode::Evaluate, &mut |env, _| {
         views.push(env.view());

@@ -28,6 +28,7 @@ use fmsr_core::trainer::{EpochStats, write_atomic};
 
 use crate::evaluate::EvalReport;
 use crate::experiment::{Engine, ExperimentConfig, ExperimentError};
+use crate::policy_file::{PolicyFile, Source};
 use crate::run::RunDir;
 
 /// One run as the report sees it.
@@ -45,10 +46,17 @@ pub struct RunRecord {
     pub cross_evals: Vec<EvalReport>,
     /// Test episode 0 drawn by `fmsr render` on its own engine: the GIF and its frame strip.
     pub rendering: Option<(PathBuf, PathBuf)>,
+    /// The configuration's label in the tables and figures
+    /// ([`ExperimentConfig::label`]; a policy file's adds `(policy file)`, so it
+    /// stands beside a run of the same configuration rather than as its seed).
+    pub label: String,
 }
 
 impl RunRecord {
     /// Reads a run directory.
+    ///
+    /// # Errors
+    /// The errors of reading the run's files.
     pub fn load(dir: &Path) -> Result<Self, ExperimentError> {
         let run = RunDir::new(dir);
         let config = run.load_config()?;
@@ -60,9 +68,40 @@ impl RunRecord {
             .map(|e| read_eval(&run.eval_json_on(e, config.engine)))
             .filter_map(Result::transpose)
             .collect::<Result<_, _>>()?;
-        let target = crate::render::RenderTarget::default_for(&run, 0, config.engine);
         let label = config.label();
-        let (mut eval, mut cross_evals) = (eval, cross_evals);
+        Ok(Self::assemble(dir, &run, config, metrics, eval, cross_evals, label))
+    }
+
+    /// Reads a run directory or a policy file ([`Source::open`]); a policy
+    /// file's record carries the learning curve and evaluations stored in it.
+    ///
+    /// # Errors
+    /// The errors of reading the run or the file.
+    pub fn open(path: &Path) -> Result<Self, ExperimentError> {
+        match Source::open(path)? {
+            Source::Run(_) => Self::load(path),
+            Source::Policy { path, file } => {
+                let home = RunDir::new(path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new(".")));
+                let eval = file.eval_on(file.config.engine).cloned();
+                let cross = file.evals.iter().filter(|e| e.engine != file.config.engine.key()).cloned().collect();
+                let label = format!("{} (policy file)", file.config.label());
+                let PolicyFile { config, metrics, .. } = *file;
+                Ok(Self::assemble(&path, &home, config, metrics, eval, cross, label))
+            }
+        }
+    }
+
+    /// A record of `dir` whose rendering (if drawn) lies in `home`.
+    fn assemble(
+        dir: &Path,
+        home: &RunDir,
+        config: ExperimentConfig,
+        metrics: Vec<EpochStats>,
+        mut eval: Option<EvalReport>,
+        mut cross_evals: Vec<EvalReport>,
+        label: String,
+    ) -> Self {
+        let target = crate::render::RenderTarget::default_for(home, 0, config.engine);
         // The configuration names the run in every table (files of older versions
         // carry only the method's label).
         for e in eval.iter_mut().chain(cross_evals.iter_mut()) {
@@ -74,12 +113,12 @@ impl RunRecord {
             }
             _ => None,
         };
-        Ok(Self { dir: dir.to_path_buf(), config, metrics, eval, cross_evals, rendering })
+        Self { dir: dir.to_path_buf(), config, metrics, eval, cross_evals, rendering, label }
     }
 
     /// The configuration's method and label ([`ExperimentConfig::label`]).
     fn configuration(&self) -> (Method, String) {
-        (self.config.method, self.config.label())
+        (self.config.method, self.label.clone())
     }
 
     fn task(&self) -> String {
@@ -88,7 +127,7 @@ impl RunRecord {
 }
 
 /// The evaluation in `path`, if the file exists.
-fn read_eval(path: &Path) -> Result<Option<EvalReport>, ExperimentError> {
+pub(crate) fn read_eval(path: &Path) -> Result<Option<EvalReport>, ExperimentError> {
     if !path.exists() {
         return Ok(None);
     }
@@ -140,7 +179,7 @@ fn renderings_section(runs: &[RunRecord], out: &Path) -> Result<String, Experime
             md,
             "**{}** ({}, {}): [animation](render/{stem}.gif)\n\n![{stem}](render/{stem}.png)\n",
             r.dir.display(),
-            r.config.method.label(),
+            r.label,
             r.config.engine.key()
         );
     }
@@ -394,7 +433,7 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
                 runs_md,
                 "| {} | {task} | {} | {} | {} | {last} | {test} |",
                 r.dir.display(),
-                r.config.label(),
+                r.label,
                 r.config.trainer.seed,
                 r.metrics.len()
             );

@@ -3,6 +3,7 @@
 //!
 //! ```text
 //! runs/<name>/config.toml      the resolved experiment
+//! runs/<name>/provenance.json  the commit and build that started it
 //! runs/<name>/checkpoint.bin   written atomically after every epoch
 //! runs/<name>/checkpoint.replay/  the replay log: one segment of new episodes per checkpoint
 //! runs/<name>/metrics.jsonl    one fmsr_core::trainer::EpochStats per line
@@ -19,6 +20,7 @@ use fmsr_core::prelude::*;
 use fmsr_core::trainer::write_atomic;
 
 use crate::experiment::{Engine, ExperimentConfig, ExperimentError};
+use crate::provenance::Provenance;
 use crate::tensorboard::EventWriter;
 
 /// The files of one run.
@@ -50,6 +52,26 @@ impl RunDir {
     #[must_use]
     pub fn checkpoint(&self) -> PathBuf {
         self.root.join("checkpoint.bin")
+    }
+
+    /// `provenance.json`: the commit and build that started the run.
+    #[must_use]
+    pub fn provenance(&self) -> PathBuf {
+        self.root.join("provenance.json")
+    }
+
+    /// Reads `provenance.json` (`None` for runs that predate it).
+    ///
+    /// # Errors
+    /// [`ExperimentError::Io`] or [`ExperimentError::Parse`] for a file that exists but cannot be read.
+    pub fn load_provenance(&self) -> Result<Option<Provenance>, ExperimentError> {
+        let path = self.provenance();
+        if !path.exists() {
+            return Ok(None);
+        }
+        let text =
+            std::fs::read_to_string(&path).map_err(|source| ExperimentError::Io { path: path.clone(), source })?;
+        serde_json::from_str(&text).map(Some).map_err(|e| ExperimentError::Parse { path, message: e.to_string() })
     }
 
     /// `metrics.jsonl`.
@@ -190,6 +212,12 @@ pub fn train_worker<E: Env + Send>(
     }
     let mut events = None;
     if writes {
+        if !resume {
+            let provenance = Provenance::of_this_process(Path::new("."));
+            let json = serde_json::to_vec_pretty(&provenance)
+                .map_err(|e| ExperimentError::Config { key: "provenance".into(), reason: e.to_string() })?;
+            write_atomic(&dir.provenance(), &json)?;
+        }
         write_atomic(&dir.config(), config.to_toml()?.as_bytes())?;
         dir.write_metrics(trainer.history())?;
         events = Some(EventWriter::create(dir.root())?);
@@ -218,4 +246,30 @@ pub fn launched_with_several_ranks() -> bool {
         .filter_map(|k| std::env::var(k).ok())
         .filter_map(|v| v.parse::<usize>().ok())
         .any(|n| n > 1)
+}
+
+/// One line of progress per epoch, for logs (`fmsr train` writes it to stderr
+/// when stderr is not a terminal): the epoch of `total`, env steps, training
+/// success (at the training threshold, exploring) and evaluation success (the
+/// epoch's deterministic episodes), env steps/s, updates/s, the epoch's
+/// seconds and the time left at the mean pace of `seconds_so_far` over
+/// `epochs_timed` epochs of this process.
+///
+/// ```
+/// # use fmsr::core::trainer::EpochStats;
+/// let s = EpochStats { epoch: 2, env_steps: 33_000, train_success_rate: 0.05, success_rate: 0.1,
+///     env_steps_per_sec: 254.0, updates_per_sec: 21.3, seconds: 104.0, ..Default::default() };
+/// assert_eq!(fmsr::run::epoch_line(&s, 8, 312.0, 3),
+///     "epoch 3/8 | 33000 env steps | train 0.05 | eval 0.10 | 254 env steps/s | 21.3 updates/s | 104 s | ETA 10 min 24 s");
+/// ```
+#[must_use]
+pub fn epoch_line(s: &EpochStats, total: usize, seconds_so_far: f64, epochs_timed: usize) -> String {
+    let done = s.epoch + 1;
+    let left = total.saturating_sub(done) as f64 * seconds_so_far / epochs_timed.max(1) as f64;
+    let left = left.round() as u64;
+    let eta = if left >= 60 { format!("{} min {} s", left / 60, left % 60) } else { format!("{left} s") };
+    format!(
+        "epoch {done}/{total} | {} env steps | train {:.2} | eval {:.2} | {:.0} env steps/s | {:.1} updates/s | {:.0} s | ETA {eta}",
+        s.env_steps, s.train_success_rate, s.success_rate, s.env_steps_per_sec, s.updates_per_sec, s.seconds
+    )
 }

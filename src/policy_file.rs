@@ -1,0 +1,327 @@
+//! Trained policy files (`fmsr export`): a run's policy alone, a few MB, that
+//! `fmsr eval`, `fmsr render` and `fmsr report` read wherever they read a run
+//! directory.
+//!
+//! A policy file holds every agent's actor and input normaliser
+//! ([`fmsr_core::policy::PolicyState`]), the experiment (env, engine, agents,
+//! topology: the run's `config.toml`), where it came from
+//! ([`Provenance`]: commit, build, command), its learning curve
+//! (`metrics.jsonl`) and its evaluations (`eval.json`, `eval-<engine>.json`).
+//! No critics, optimiser state, RNG or replay: it acts, it does not train on.
+//!
+//! ```text
+//! magic "FMSRPLCY" | format version (u32, LE) | FNV-1a 64 of the body | body (postcard)
+//! body: config (TOML) | provenance (JSON) | metrics (JSON lines) | evaluations (JSON each)
+//!       | epochs | env steps | policy state (fmsr-nn's framing of its own)
+//! ```
+//!
+//! The framing is [`fmsr_core::persist`]'s, so a file of another format
+//! version, a truncated or a corrupted one is an error naming what is wrong
+//! before any byte of it is used.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use fmsr_core::persist::{self, FormatError};
+use fmsr_core::prelude::*;
+use fmsr_core::trainer::{read_checkpoint_contents, write_atomic};
+
+use crate::evaluate::EvalReport;
+use crate::experiment::{Engine, ExperimentConfig, ExperimentError};
+use crate::provenance::Provenance;
+use crate::run::RunDir;
+
+/// The magic number of a policy file.
+const MAGIC: &[u8; 8] = b"FMSRPLCY";
+
+/// The policy file format this build writes and reads.
+pub const POLICY_FILE_VERSION: u32 = 1;
+
+/// The name of a policy file inside a directory: `fmsr eval DIR` reads
+/// `DIR/policy.fmsr` when `DIR` holds no run.
+pub const POLICY_FILE_NAME: &str = "policy.fmsr";
+
+/// The body as stored: the self-describing parts as text (the configuration's
+/// tagged enums and the metrics' optional fields need TOML and JSON).
+#[derive(Serialize, Deserialize)]
+struct Body {
+    config: String,
+    provenance: String,
+    metrics: Vec<String>,
+    evals: Vec<String>,
+    epochs: u64,
+    env_steps: u64,
+    policy: Vec<u8>,
+}
+
+/// A trained policy with its experiment, provenance, learning curve and evaluations.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PolicyFile {
+    /// The experiment the policy was trained in.
+    pub config: ExperimentConfig,
+    /// The commit and build that trained it.
+    pub provenance: Provenance,
+    /// The run's per-epoch statistics.
+    pub metrics: Vec<EpochStats>,
+    /// The run's evaluations: on its own engine first, then on the others.
+    pub evals: Vec<EvalReport>,
+    /// Epochs trained.
+    pub epochs: usize,
+    /// Env steps collected (one worker's).
+    pub env_steps: u64,
+    /// The policy state ([`fmsr_core::policy::PolicyState::save_policy`]).
+    pub policy: Vec<u8>,
+}
+
+impl PolicyFile {
+    /// The policy of the run in `dir`, from its last checkpoint, with its
+    /// configuration, provenance, metrics and evaluations.
+    ///
+    /// # Errors
+    /// The errors of reading the run's files; [`ExperimentError::Config`] when
+    /// the run has no checkpoint.
+    pub fn from_run(dir: &RunDir) -> Result<Self, ExperimentError> {
+        if !dir.checkpoint().exists() {
+            return Err(ExperimentError::Config {
+                key: "run".into(),
+                reason: format!("{} holds no trained run (no checkpoint.bin)", dir.root().display()),
+            });
+        }
+        let config = dir.load_config()?;
+        let contents = read_checkpoint_contents(&dir.checkpoint())?;
+        let policy = fmsr_nn::policy_from_learner_state(&contents.algorithm)?;
+        let mut metrics = dir.load_metrics()?;
+        metrics.truncate(contents.epoch);
+        let mut evals = Vec::new();
+        for engine in [config.engine, other_engine(config.engine)] {
+            if let Some(e) = crate::report::read_eval(&dir.eval_json_on(engine, config.engine))? {
+                evals.push(e);
+            }
+        }
+        Ok(Self {
+            provenance: dir.load_provenance()?.unwrap_or_default(),
+            config,
+            metrics,
+            evals,
+            epochs: contents.epoch,
+            env_steps: contents.env_steps,
+            policy,
+        })
+    }
+
+    /// The evaluation on `engine` the file carries, if any.
+    #[must_use]
+    pub fn eval_on(&self, engine: Engine) -> Option<&EvalReport> {
+        self.evals.iter().find(|e| e.engine == engine.key())
+    }
+
+    /// The file's bytes.
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] when a part cannot be encoded.
+    pub fn to_bytes(&self) -> Result<Vec<u8>, ExperimentError> {
+        let body = Body {
+            config: self.config.to_toml()?,
+            provenance: to_json(&self.provenance)?,
+            metrics: self.metrics.iter().map(to_json).collect::<Result<_, _>>()?,
+            evals: self.evals.iter().map(to_json).collect::<Result<_, _>>()?,
+            epochs: self.epochs as u64,
+            env_steps: self.env_steps,
+            policy: self.policy.clone(),
+        };
+        persist::encode(MAGIC, POLICY_FILE_VERSION, &body)
+            .map_err(|e| ExperimentError::Config { key: "policy file".into(), reason: e.to_string() })
+    }
+
+    /// Reads a file's bytes; `path` names it in errors.
+    ///
+    /// # Errors
+    /// [`ExperimentError::Parse`] naming what is wrong: not a policy file,
+    /// another format version, a checksum mismatch, or a part that does not
+    /// parse (the configuration is checked as `fmsr train` checks it).
+    pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self, ExperimentError> {
+        let parse = |message: String| ExperimentError::Parse { path: path.to_path_buf(), message };
+        let body: Body = persist::decode(MAGIC, POLICY_FILE_VERSION, bytes).map_err(|e| match e {
+            FormatError::Version { found, expected } => parse(format!(
+                "policy file format version {found}, this build reads version {expected}: export the run again \
+                 with this build, or use the build that wrote it"
+            )),
+            FormatError::Magic { .. } => parse("not an fmsr policy file (bad magic)".into()),
+            other => parse(format!("policy file: {other}")),
+        })?;
+        let json = |what: &str, text: &str| parse(format!("policy file's {what}: {text}"));
+        let config = ExperimentConfig::from_toml(&body.config, path)?;
+        let provenance = serde_json::from_str(&body.provenance).map_err(|e| json("provenance", &e.to_string()))?;
+        let metrics = body
+            .metrics
+            .iter()
+            .map(|m| serde_json::from_str(m).map_err(|e| json("metrics", &e.to_string())))
+            .collect::<Result<_, _>>()?;
+        let evals = body
+            .evals
+            .iter()
+            .map(|m| serde_json::from_str(m).map_err(|e| json("evaluation", &e.to_string())))
+            .collect::<Result<_, _>>()?;
+        let epochs = usize::try_from(body.epochs).map_err(|e| json("epochs", &e.to_string()))?;
+        Ok(Self { config, provenance, metrics, evals, epochs, env_steps: body.env_steps, policy: body.policy })
+    }
+
+    /// Reads a policy file.
+    ///
+    /// # Errors
+    /// [`ExperimentError::Io`], or as [`PolicyFile::from_bytes`].
+    pub fn read(path: &Path) -> Result<Self, ExperimentError> {
+        let bytes = std::fs::read(path).map_err(|source| ExperimentError::Io { path: path.into(), source })?;
+        Self::from_bytes(&bytes, path)
+    }
+
+    /// Writes the file atomically (a crash leaves the old file or the new one).
+    ///
+    /// # Errors
+    /// As [`PolicyFile::to_bytes`], and I/O errors.
+    pub fn write(&self, path: &Path) -> Result<(), ExperimentError> {
+        Ok(write_atomic(path, &self.to_bytes()?)?)
+    }
+}
+
+/// The policy files in `dir` (`dir/*.fmsr` and `dir/*/policy.fmsr`, sorted)
+/// trained in the configuration of `config`: the same task, engine and
+/// configuration label (method, agents). Files that cannot be read are
+/// skipped with a warning on stderr; a missing `dir` has none.
+#[must_use]
+pub fn matching_policies(dir: &Path, config: &ExperimentConfig) -> Vec<PathBuf> {
+    let Ok(entries) = std::fs::read_dir(dir) else { return Vec::new() };
+    let mut paths: Vec<PathBuf> = entries
+        .flatten()
+        .map(|e| e.path())
+        .map(|p| if p.is_dir() { p.join(POLICY_FILE_NAME) } else { p })
+        .filter(|p| p.is_file() && p.extension().is_some_and(|e| e == "fmsr"))
+        .collect();
+    paths.sort();
+    paths.retain(|p| match PolicyFile::read(p) {
+        Ok(f) => {
+            f.config.env.object == config.env.object
+                && f.config.engine == config.engine
+                && f.config.label() == config.label()
+        }
+        Err(e) => {
+            eprintln!("warning: skipping {}: {e}", p.display());
+            false
+        }
+    });
+    paths
+}
+
+/// The engine that is not `engine`.
+fn other_engine(engine: Engine) -> Engine {
+    match engine {
+        Engine::Rapier => Engine::Mujoco,
+        Engine::Mujoco => Engine::Rapier,
+    }
+}
+
+/// One part of the body as JSON text.
+fn to_json<T: Serialize>(value: &T) -> Result<String, ExperimentError> {
+    serde_json::to_string(value)
+        .map_err(|e| ExperimentError::Config { key: "policy file".into(), reason: e.to_string() })
+}
+
+/// What `fmsr eval`, `render` and `report` read: a run directory or a policy file.
+#[derive(Debug, Clone)]
+pub enum Source {
+    /// A run directory (its last checkpoint acts).
+    Run(RunDir),
+    /// A policy file.
+    Policy {
+        /// Where it was read from.
+        path: PathBuf,
+        /// Its contents.
+        file: Box<PolicyFile>,
+    },
+}
+
+impl Source {
+    /// `path` as a run directory (it holds `config.toml`), a directory that
+    /// holds `policy.fmsr`, or a policy file.
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] for a directory that holds neither;
+    /// the errors of [`PolicyFile::read`].
+    pub fn open(path: &Path) -> Result<Self, ExperimentError> {
+        if path.is_dir() {
+            let run = RunDir::new(path);
+            if run.config().exists() {
+                return Ok(Self::Run(run));
+            }
+            let file = path.join(POLICY_FILE_NAME);
+            if !file.exists() {
+                return Err(ExperimentError::Config {
+                    key: "run".into(),
+                    reason: format!(
+                        "{} holds neither a run (config.toml) nor a policy file ({POLICY_FILE_NAME})",
+                        path.display()
+                    ),
+                });
+            }
+            return Ok(Self::Policy { file: Box::new(PolicyFile::read(&file)?), path: file });
+        }
+        Ok(Self::Policy { file: Box::new(PolicyFile::read(path)?), path: path.to_path_buf() })
+    }
+
+    /// The experiment. A policy file's acts on the CPU (`device = "cpu"`):
+    /// the policy does not depend on the device or stacking it trained with.
+    ///
+    /// # Errors
+    /// The errors of reading a run's `config.toml`.
+    pub fn config(&self) -> Result<ExperimentConfig, ExperimentError> {
+        match self {
+            Self::Run(dir) => dir.load_config(),
+            Self::Policy { file, .. } => {
+                let mut config = file.config.clone();
+                "cpu".clone_into(&mut config.device);
+                Ok(config)
+            }
+        }
+    }
+
+    /// The directory the source lives in: the run directory, or the policy
+    /// file's folder (where `fmsr render` draws by default).
+    #[must_use]
+    pub fn home(&self) -> &Path {
+        match self {
+            Self::Run(dir) => dir.root(),
+            Self::Policy { path, .. } => path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new(".")),
+        }
+    }
+
+    /// The path as given.
+    #[must_use]
+    pub fn path(&self) -> &Path {
+        match self {
+            Self::Run(dir) => dir.root(),
+            Self::Policy { path, .. } => path,
+        }
+    }
+
+    /// Puts the policy into `trainer` (built from [`Source::config`]); returns
+    /// the epochs it was trained for.
+    ///
+    /// # Errors
+    /// The errors of reading the checkpoint, or of a policy that does not fit.
+    pub fn load_into<E: Env + Send>(
+        &self,
+        trainer: &mut Trainer<E, fmsr_nn::AnyLearner>,
+    ) -> Result<usize, ExperimentError> {
+        match self {
+            Self::Run(dir) => {
+                trainer.load_checkpoint_without_storage(&dir.checkpoint())?;
+                Ok(trainer.epoch())
+            }
+            Self::Policy { file, .. } => {
+                trainer.algorithm_mut().load_policy(&file.policy)?;
+                Ok(file.epochs)
+            }
+        }
+    }
+}
