@@ -3,7 +3,10 @@
 //! `--resume` continues a run; bad configs, and settings that contradict their
 //! owner (`method`, `algorithm`), are rejected before the run directory exists
 //! with a message that names the key; each algorithm trains on the hand; a
-//! run killed at any moment resumes to the uninterrupted run's history.
+//! run killed at any moment resumes to the uninterrupted run's history; a
+//! policy file (`fmsr export`) gives its run's results wherever a run is read,
+//! and a damaged one is an error naming what is wrong; training's progress
+//! reaches a log one line per epoch.
 
 mod common;
 
@@ -45,9 +48,17 @@ fn train_eval_report_and_resume() {
 
     let out = fmsr(&["train", "--config", config_s, "--out", run_s, "--seed", "3"]);
     assert!(out.status.success(), "{}", text(&out));
-    for f in ["config.toml", "checkpoint.bin", "metrics.jsonl", "metrics.csv"] {
+    for f in ["config.toml", "checkpoint.bin", "metrics.jsonl", "metrics.csv", "provenance.json"] {
         assert!(run.join(f).exists(), "{f} missing");
     }
+    // stderr is a pipe here, as in `fmsr train > log 2>&1`: one line per epoch
+    // instead of the progress bar, which hides itself without a terminal (issue 30, item 4).
+    let log = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(log.lines().filter(|l| l.starts_with("epoch 1/1 | ")).count(), 1, "{log}");
+    assert!(log.contains(" env steps/s | ") && log.contains(" updates/s | ") && log.contains("| ETA 0 s"), "{log}");
+    let provenance: fmsr::provenance::Provenance =
+        serde_json::from_slice(&std::fs::read(run.join("provenance.json")).unwrap()).unwrap();
+    assert!(provenance.command.iter().any(|a| a == "--seed"), "{provenance:?}");
     assert_eq!(std::fs::read_to_string(run.join("metrics.jsonl")).unwrap().lines().count(), 1);
 
     // A second train into the same directory must not overwrite the run.
@@ -59,12 +70,13 @@ fn train_eval_report_and_resume() {
     // run reads only its own config.toml (regression: it used to load the
     // default --config first and fail there).
     let out = Command::new(FMSR)
-        .args(["train", "--out", run_s, "--resume", "--epochs", "2"])
+        .args(["train", "--out", run_s, "--resume", "--epochs", "2", "--quiet"])
         .current_dir(tmp.path())
         .env("RUST_BACKTRACE", "0")
         .output()
         .unwrap();
     assert!(out.status.success(), "{}", text(&out));
+    assert!(!text(&out).contains("epoch 2/2"), "--quiet printed progress: {}", text(&out));
     assert_eq!(std::fs::read_to_string(run.join("metrics.jsonl")).unwrap().lines().count(), 2);
     assert!(std::fs::read_to_string(run.join("config.toml")).unwrap().contains("seed = 3"));
 
@@ -120,6 +132,121 @@ fn train_eval_report_and_resume() {
     assert!(summary.contains("## Test episode 0, rendered"), "{summary}");
     assert!(summary.contains("](render/00-tiny.gif)") && summary.contains("](render/00-tiny.png)"), "{summary}");
     assert!(run.join("render/episode-0-rapier.gif").exists());
+}
+
+/// `eval.json` as JSON without its wall time.
+fn eval_results(path: &Path) -> serde_json::Value {
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap();
+    v.as_object_mut().unwrap().remove("seconds");
+    v
+}
+
+// Guards policy files (issue 30, item 1): `fmsr export` writes the policy
+// alone, a small part of the checkpoint; `eval`, `render` and `report` read
+// the file (or a directory holding `policy.fmsr`) and give the run's results
+// exactly; `fmsr run` sets its run beside the shipped policy of its configuration.
+#[test]
+fn an_exported_policy_gives_the_results_of_its_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = trained_tiny_run(tmp.path());
+    let run_s = run.to_str().unwrap();
+    assert!(fmsr(&["eval", run_s]).status.success());
+    let shipped = tmp.path().join("pretrained/tiny");
+    std::fs::create_dir_all(&shipped).unwrap();
+    let file = shipped.join("policy.fmsr");
+    let file_s = file.to_str().unwrap();
+    let out = fmsr(&["export", run_s, "--out", file_s]);
+    assert!(out.status.success(), "{}", text(&out));
+    let (policy, checkpoint) =
+        (std::fs::metadata(&file).unwrap().len(), std::fs::metadata(run.join("checkpoint.bin")).unwrap().len());
+    assert!(
+        policy * 4 < checkpoint,
+        "the policy file ({policy} B) is not much smaller than the checkpoint ({checkpoint} B)"
+    );
+
+    // eval: the same results, checked against the evaluation the file carries.
+    let again = tmp.path().join("again.json");
+    let out = fmsr(&["eval", file_s, "--out", again.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(text(&out).contains("the same results as the evaluation the file carries"), "{}", text(&out));
+    assert_eq!(eval_results(&again), eval_results(&run.join("eval.json")));
+    let out = fmsr(&["eval", shipped.to_str().unwrap(), "--episodes", "1"]);
+    assert!(
+        out.status.success() && text(&out).contains("differs from the evaluation the file carries"),
+        "{}",
+        text(&out)
+    );
+
+    // render: the same frames.
+    let (a, b) = (tmp.path().join("run.gif"), tmp.path().join("file.gif"));
+    for (source, gif) in [(run_s, &a), (file_s, &b)] {
+        let out = fmsr(&["render", source, "--out", gif.to_str().unwrap(), "--width", "64", "--height", "48"]);
+        assert!(out.status.success(), "{}", text(&out));
+    }
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+
+    // report: the file's row stands beside the run's, with its learning curve.
+    let report = tmp.path().join("report");
+    let out = fmsr(&["report", run_s, file_s, "--out", report.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out));
+    let summary = std::fs::read_to_string(report.join("summary.md")).unwrap();
+    assert!(summary.contains("| block | Dense+FMSR+IS (policy file) |"), "{summary}");
+    assert!(summary.contains("| block | Dense+FMSR+IS |"), "{summary}");
+    assert!(summary.contains(&format!("| {file_s} | block | Dense+FMSR+IS (policy file) | 0 | 1 |")), "{summary}");
+    assert!(shipped.join("render/episode-0-rapier.gif").exists(), "the report draws a policy file beside it");
+
+    // The main job's report sets the newcomer's run beside the shipped policy.
+    let config = tmp.path().join("tiny.toml");
+    let run2 = tmp.path().join("run2");
+    let pretrained = tmp.path().join("pretrained");
+    let out = fmsr(&[
+        "run",
+        "--config",
+        config.to_str().unwrap(),
+        "--out",
+        run2.to_str().unwrap(),
+        "--pretrained",
+        pretrained.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    let summary = std::fs::read_to_string(run2.join("report/summary.md")).unwrap();
+    assert!(summary.contains("Dense+FMSR+IS (policy file)") && summary.contains(file_s), "{summary}");
+}
+
+// Guards the policy file reader (issue 30, item 1): another format version, a
+// damaged file, a file of another kind and a directory without a policy are
+// errors that say what is wrong, never a panic.
+#[test]
+fn bad_policy_files_are_errors_naming_what_is_wrong() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = trained_tiny_run(tmp.path());
+    let file = tmp.path().join("tiny.fmsr");
+    assert!(fmsr(&["export", run.to_str().unwrap(), "--out", file.to_str().unwrap()]).status.success());
+    let good = std::fs::read(&file).unwrap();
+    let bad = tmp.path().join("bad.fmsr");
+    let check = |bytes: &[u8], expected: &str| {
+        std::fs::write(&bad, bytes).unwrap();
+        for cmd in ["eval", "render", "report"] {
+            let out = fmsr(&[cmd, bad.to_str().unwrap()]);
+            assert!(!out.status.success() && text(&out).contains(expected), "{cmd}: {}", text(&out));
+            assert!(!text(&out).contains("panicked"), "{}", text(&out));
+        }
+    };
+    let mut newer = good.clone();
+    newer[8..12].copy_from_slice(&2u32.to_le_bytes());
+    check(&newer, "policy file format version 2, this build reads version 1");
+    check(&good[..good.len() / 2], "checksum mismatch");
+    let mut flipped = good.clone();
+    flipped[good.len() - 10] ^= 4;
+    check(&flipped, "checksum mismatch");
+    check(&std::fs::read(run.join("checkpoint.bin")).unwrap(), "not an fmsr policy file");
+    let empty = tmp.path().join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    let out = fmsr(&["eval", empty.to_str().unwrap()]);
+    assert!(!out.status.success() && text(&out).contains("holds neither a run"), "{}", text(&out));
+    let out = fmsr(&["export", empty.to_str().unwrap()]);
+    assert!(!out.status.success() && text(&out).contains("no checkpoint.bin"), "{}", text(&out));
 }
 
 /// The RGBA frames of a GIF file.

@@ -1,5 +1,6 @@
 //! Guards the readers of everything a run keeps against corrupted input: the
-//! TOML config loader, the checkpoint reader and the replay log's reader get random bytes, truncations
+//! TOML config loader, the checkpoint reader, the replay log's reader and the
+//! policy file reader get random bytes, truncations
 //! and bit flips of valid files, and answer with a typed error (or, for a
 //! config, a valid config) every time: never a panic. Case counts are small
 //! in `cargo test`; `FMSR_FUZZ_CASES=N` runs more.
@@ -40,6 +41,29 @@ fn checkpoint() -> &'static (tempfile::TempDir, Vec<u8>) {
         t.train(|t, _| t.save_checkpoint(&path)).unwrap();
         let bytes = std::fs::read(&path).unwrap();
         (dir, bytes)
+    })
+}
+
+/// A valid policy file of the quick block config carrying a TeamReach policy (the reader checks the framing and
+/// every part's syntax; whether the policy fits an env is the learner's check, fuzzed above).
+fn policy_file() -> &'static Vec<u8> {
+    static FILE: OnceLock<Vec<u8>> = OnceLock::new();
+    FILE.get_or_init(|| {
+        let mut t = common::team_reach_trainer(Method::DenseFmsrIs, 1, 1);
+        t.train(|_, _| Ok(())).unwrap();
+        let file = fmsr::policy_file::PolicyFile {
+            config: ExperimentConfig::load(Path::new("configs/block_dense_fmsr_is_quick.toml")).unwrap(),
+            provenance: fmsr::provenance::Provenance::of_this_process(Path::new(".")),
+            metrics: t.history().to_vec(),
+            evals: Vec::new(),
+            epochs: t.epoch(),
+            env_steps: 1000,
+            policy: t.algorithm().save_policy().unwrap(),
+        };
+        let bytes = file.to_bytes().unwrap();
+        let back = fmsr::policy_file::PolicyFile::from_bytes(&bytes, Path::new("x.fmsr")).unwrap();
+        assert_eq!(back, file);
+        bytes
     })
 }
 
@@ -100,5 +124,20 @@ proptest! {
         let mut fresh = common::team_reach_trainer(Method::DenseFmsrIs, 1, 1);
         let result = fresh.load_checkpoint(&case.path().join("checkpoint.bin"));
         prop_assert!(result.is_err(), "a corrupted replay segment was accepted");
+    }
+
+    #[test]
+    fn corrupted_policy_files_are_errors_not_panics(
+        flips in proptest::collection::vec((0usize..1 << 24, 0u8..8), 1..4),
+        cut in proptest::option::of(0usize..1 << 24),
+        noise in proptest::collection::vec(any::<u8>(), 0..64),
+    ) {
+        let good = policy_file();
+        let read = |bytes: &[u8]| fmsr::policy_file::PolicyFile::from_bytes(bytes, Path::new("x.fmsr"));
+        let damaged = corrupt(good, &flips, cut);
+        prop_assume!(&damaged != good);
+        for bytes in [damaged, [&good[..20], &noise[..]].concat(), noise.clone()] {
+            prop_assert!(read(&bytes).is_err(), "a corrupted policy file was accepted");
+        }
     }
 }
