@@ -1,0 +1,25 @@
+# Sourced by the steps that run on the GPU machine (start.sh, finish.sh): the
+# packed binary, model, Vulkan loader and MuJoCo library of scripts/gpu/pack.sh.
+# Needs root for the loader (the .debs are unpacked into /).
+pack=${FMSR_PACK:-.gpu}
+if [ ! -x "$pack/bin/fmsr" ]; then
+  echo "no $pack/bin/fmsr: run scripts/gpu/pack.sh where there is network, and carry $pack" >&2
+  exit 2
+fi
+if [ -d "$pack/debs" ] && ! ldconfig -p | grep -q libvulkan.so.1; then
+  for f in "$pack"/debs/*.deb; do dpkg -x "$f" /; done
+  ldconfig
+fi
+icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+if [ -f "$icd" ] && [ -z "${VK_DRIVER_FILES:-}" ]; then
+  export VK_DRIVER_FILES=$icd
+fi
+if [ -d "$pack/lib" ]; then
+  export LD_LIBRARY_PATH=$PWD/$pack/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+fi
+export FMSR_ASSETS_DIR=$PWD/$pack/assets
+if [ -z "${XDG_RUNTIME_DIR:-}" ]; then
+  XDG_RUNTIME_DIR=$(mktemp -d)
+  export XDG_RUNTIME_DIR
+fi
+FMSR=$pack/bin/fmsr

@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# Step 1 of 4 of a run on an offline GPU machine, on a machine WITH network:
+# builds the release binary with the features the GPU machine needs, fetches
+# the Shadow Hand model, and packs what must travel into one ignored folder
+# (default .gpu/): the stripped binary, the model, the Vulkan loader (.debs),
+# and with --mujoco MuJoCo's library. Carry that folder with the repository
+# (for the device tool: carry [".gpu"]).
+#
+#   scripts/gpu/pack.sh                  # --features vulkan (device vulkan:0)
+#   scripts/gpu/pack.sh --mujoco         # and MuJoCo, for the cross-engine evaluation
+#   scripts/gpu/pack.sh --cpu            # no GPU feature: to try the steps on any machine
+#   scripts/gpu/pack.sh --out DIR        # another folder (must be ignored by git)
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+features=vulkan
+mujoco=0
+out=.gpu
+while [ $# -gt 0 ]; do
+  case $1 in
+    --mujoco) mujoco=1 ;;
+    --cpu) features= ;;
+    --features) features=$2; shift ;;
+    --out) out=$2; shift ;;
+    *) echo "usage: $0 [--mujoco] [--cpu | --features LIST] [--out DIR]" >&2; exit 2 ;;
+  esac
+  shift
+done
+if ! git check-ignore -q "$out"; then
+  echo "$out is not ignored by git: it would travel twice (add it to .gitignore or .git/info/exclude)" >&2
+  exit 2
+fi
+if [ "$mujoco" = 1 ]; then
+  scripts/setup_mujoco.sh
+  features=${features:+$features,}mujoco
+fi
+cargo build --release ${features:+--features "$features"}
+rm -rf "$out"
+mkdir -p "$out/bin" "$out/assets"
+cp target/release/fmsr "$out/bin/fmsr"
+strip "$out/bin/fmsr"
+# The model: the extracted folder only (the wheel it came from stays in the cache).
+model=$(target/release/fmsr assets fetch)
+cp -r "${model%/assets}" "$out/assets/"
+if [ "$mujoco" = 1 ]; then
+  mkdir -p "$out/lib"
+  cp -L target/mujoco/lib/libmujoco.so* "$out/lib/"
+fi
+if [[ $features == *vulkan* || $features == *wgpu* ]]; then
+  # The Vulkan loader (the GPU machine has NVIDIA's driver but may lack
+  # libvulkan1), as .debs for x86-64, unpacked there by scripts/gpu/env.sh.
+  lists=$(mktemp -d)
+  o=(-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 "-oDir::State::Lists=$lists")
+  mkdir -p "$lists/partial" "$out/debs"
+  apt-get "${o[@]}" update >/dev/null
+  (cd "$out/debs" && apt-get "${o[@]}" download libvulkan1 >/dev/null)
+fi
+{
+  echo "commit $(git rev-parse HEAD)$(git diff --quiet HEAD -- . ':!docs' || echo ' (with uncommitted changes)')"
+  echo "features ${features:-none}"
+  echo "packed $(date -u +%Y-%m-%dT%H:%M:%SZ)"
+} > "$out/MANIFEST"
+# What travels: the tracked and untracked-not-ignored files, and this folder.
+tree=$(git ls-files -z --cached --others --exclude-standard | xargs -0 -r du -cb 2>/dev/null | tail -n 1 | cut -f 1)
+packed=$(du -sb "$out" | cut -f 1)
+total=$(( (tree + packed) / 1048576 ))
+cat "$out/MANIFEST"
+echo "packed $out: $(( packed / 1048576 )) MiB; with the tree $total MiB of the 64 MiB that may travel"
+if [ "$total" -ge 64 ]; then
+  echo "too large to travel: carry less (--cpu, no --mujoco) or shrink the tree" >&2
+  exit 1
+fi
