@@ -35,8 +35,8 @@ enum Command {
     Report(ReportArgs),
     /// Draw one test episode of a trained run's or policy file's policy as an animated GIF (or PNG frames), headless.
     Render(RenderArgs),
-    /// The main job: train the default experiment (block, Dense+FMSR+IS, rapier, quick budget),
-    /// evaluate it and write the report.
+    /// The main job: train the default experiment (egg, Dense+FMSR+IS, rapier, quick budget),
+    /// evaluate it and write the report beside the shipped policy of its configuration.
     Run(RunArgs),
     /// The Shadow Hand model cache (the model comes from the gymnasium-robotics wheel on PyPI).
     #[command(subcommand)]
@@ -58,7 +58,7 @@ enum AssetsCommand {
 #[derive(Debug, clap::Args)]
 struct TrainArgs {
     /// The experiment (TOML); with --resume the run's own config.toml is used.
-    #[arg(long, default_value = "configs/block_dense_fmsr_is_quick.toml")]
+    #[arg(long, default_value = "configs/egg_dense_fmsr_is_quick.toml")]
     config: PathBuf,
     /// Physics engine, overriding the config.
     #[arg(long, value_enum)]
@@ -147,7 +147,7 @@ struct RenderArgs {
 #[derive(Debug, clap::Args)]
 struct RunArgs {
     /// The experiment (TOML).
-    #[arg(long, default_value = "configs/block_dense_fmsr_is_quick.toml")]
+    #[arg(long, default_value = "configs/egg_dense_fmsr_is_quick.toml")]
     config: PathBuf,
     /// Run directory (default `runs/<name>`); an existing run there is resumed.
     #[arg(long)]
