@@ -94,6 +94,12 @@ pub struct GraphConfig {
     /// Undirected edges between agent names; `None` is the paper's finger ring
     /// thumb-index-middle-ring-little-thumb with the wrist on its own.
     pub edges: Option<Vec<(String, String)>>,
+    /// What each actor observes besides the goal and its neighbours' previous
+    /// actions: `"local"` (default, the paper's MAGCLA: its own joints and
+    /// touch sensors and the object) or `"global"` (the critics' global
+    /// observation; an ablation, no longer MAGCLA).
+    #[serde(default)]
+    pub actor_observation: ActorView,
 }
 
 impl GraphConfig {
@@ -465,6 +471,9 @@ impl ExperimentConfig {
         if self.teammates() == Teammates::Current {
             label.push_str(", current teammates");
         }
+        if self.graph.actor_observation == ActorView::Global {
+            label.push_str(", global actors");
+        }
         label
     }
 
@@ -552,6 +561,7 @@ impl ExperimentConfig {
             .ok_or_else(|| ExperimentError::Config { key: "trainer.envs".into(), reason: "no environment".into() })?;
         let graph = self.graph.build(&spec)?;
         let layout = ObservationLayout::from_graph(spec.clone(), &graph)
+            .map(|l| l.with_view(self.graph.actor_observation))
             .map_err(|source| ExperimentError::Invalid { key: "graph.edges", source })?;
         let trainer_config = self.trainer_config();
         trainer_config

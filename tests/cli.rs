@@ -249,6 +249,35 @@ fn bad_policy_files_are_errors_naming_what_is_wrong() {
     assert!(!out.status.success() && text(&out).contains("no checkpoint.bin"), "{}", text(&out));
 }
 
+// Guards the `graph.actor_observation` switch (issue 31): `"global"` actors
+// train on the hand, the configuration's label names them, a checkpoint of
+// local actors is not resumed as global ones, and an unknown value is refused.
+#[test]
+fn global_actors_train_and_are_told_apart() {
+    let tmp = tempfile::tempdir().unwrap();
+    let config = tiny_config(tmp.path(), "[graph]\nactor_observation = \"global\"\n");
+    let run = tmp.path().join("global");
+    let out = fmsr(&["train", "--config", config.to_str().unwrap(), "--out", run.to_str().unwrap(), "--quiet"]);
+    assert!(out.status.success(), "{}", text(&out));
+    let written = std::fs::read_to_string(run.join("config.toml")).unwrap();
+    assert!(written.contains("actor_observation = \"global\""), "{written}");
+    let out = fmsr(&["eval", run.to_str().unwrap()]);
+    assert!(out.status.success() && text(&out).contains("| Dense+FMSR+IS, global actors |"), "{}", text(&out));
+
+    let local_dir = tmp.path().join("local");
+    std::fs::create_dir(&local_dir).unwrap();
+    let local = trained_tiny_run(&local_dir);
+    let text_local = std::fs::read_to_string(local.join("config.toml")).unwrap();
+    assert!(text_local.contains("actor_observation = \"local\""), "{text_local}");
+    std::fs::write(local.join("config.toml"), text_local.replace("\"local\"", "\"global\"")).unwrap();
+    let out = fmsr(&["train", "--out", local.to_str().unwrap(), "--resume", "--epochs", "2"]);
+    assert!(!out.status.success() && text(&out).contains("agent 0 actor"), "{}", text(&out));
+
+    let bad = tiny_config(tmp.path(), "[graph]\nactor_observation = \"everything\"\n");
+    let out = fmsr(&["train", "--config", bad.to_str().unwrap(), "--out", tmp.path().join("bad").to_str().unwrap()]);
+    assert!(!out.status.success() && text(&out).contains("actor_observation"), "{}", text(&out));
+}
+
 /// The RGBA frames of a GIF file.
 fn gif_frames(path: &Path) -> Vec<Vec<u8>> {
     let mut options = gif::DecodeOptions::new();

@@ -7,12 +7,31 @@ use serde::{Deserialize, Serialize};
 use crate::error::CoreError;
 use crate::spec::{EnvSpec, JointAction, Observation};
 
-/// How an actor's input is assembled (docs/design.md 3.2): its local observation,
-/// the goal, and its graph neighbours' previous actions, in that order.
+/// What an actor observes of the environment.
+///
+/// MAGCLA (the paper's design, the default) gives each actor its own part of
+/// the state; `Global` gives every actor the critics' global observation, an
+/// ablation (issue 31) that is no longer MAGCLA: it tells how much the
+/// six-agent method loses by its actors' local view.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ActorView {
+    /// The agent's local observation (own joints and touch sensors, the object).
+    #[default]
+    Local,
+    /// The global observation, as the critics see it.
+    Global,
+}
+
+/// How an actor's input is assembled (docs/design.md 3.2): its observation
+/// ([`ActorView`]: local by default), the goal, and its graph neighbours'
+/// previous actions, in that order.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ObservationLayout {
     spec: EnvSpec,
     neighbours: Vec<Vec<usize>>,
+    #[serde(default)]
+    view: ActorView,
 }
 
 impl ObservationLayout {
@@ -48,7 +67,41 @@ impl ObservationLayout {
                 });
             }
         }
-        Ok(Self { spec, neighbours })
+        Ok(Self { spec, neighbours, view: ActorView::Local })
+    }
+
+    /// The same layout with actors observing `view`.
+    ///
+    /// ```
+    /// use fmsr_core::agent::{ActorView, ObservationLayout};
+    /// use fmsr_core::spec::{AgentSpec, EnvSpec};
+    /// let agent = |n: &str, s: Vec<usize>, d| AgentSpec { name: n.into(), action_slots: s, local_obs_dim: d };
+    /// let spec = EnvSpec { agents: vec![agent("a", vec![0], 1), agent("b", vec![1, 2], 2)],
+    ///     action_dim: 3, obs_dim: 3, goal_dim: 1, episode_len: 5, features: vec![], reward_range: (-1.0, 0.0) };
+    /// let layout = ObservationLayout::new(spec, vec![vec![1], vec![0]]).unwrap().with_view(ActorView::Global);
+    /// assert_eq!(layout.actor_input_dim(0), 3 + 1 + 2);
+    /// assert_eq!(layout.actor_observation(&[7.0], &[1.0, 2.0, 3.0]), &[1.0, 2.0, 3.0]);
+    /// ```
+    #[must_use]
+    pub fn with_view(mut self, view: ActorView) -> Self {
+        self.view = view;
+        self
+    }
+
+    /// What actors observe.
+    #[must_use]
+    pub fn view(&self) -> ActorView {
+        self.view
+    }
+
+    /// The part of an observation an actor sees: `local` (its own) or
+    /// `global`, by the layout's [`ActorView`].
+    #[must_use]
+    pub fn actor_observation<'a>(&self, local: &'a [f32], global: &'a [f32]) -> &'a [f32] {
+        match self.view {
+            ActorView::Local => local,
+            ActorView::Global => global,
+        }
     }
 
     /// A layout whose neighbours are those of `graph` (node `i` = agent `i`).
@@ -80,7 +133,11 @@ impl ObservationLayout {
     /// Length of agent `agent`'s actor input.
     #[must_use]
     pub fn actor_input_dim(&self, agent: usize) -> usize {
-        self.spec.agents[agent].local_obs_dim
+        let observed = match self.view {
+            ActorView::Local => self.spec.agents[agent].local_obs_dim,
+            ActorView::Global => self.spec.obs_dim,
+        };
+        observed
             + self.spec.goal_dim
             + self.neighbours[agent].iter().map(|&j| self.spec.agents[j].action_dim()).sum::<usize>()
     }
@@ -91,8 +148,9 @@ impl ObservationLayout {
         self.spec.obs_dim + self.spec.goal_dim + self.spec.action_dim
     }
 
-    /// Appends agent `agent`'s actor input to `out`: `local`, `goal`, then the
-    /// neighbours' slots of `prev_action` (the joint action of the previous step).
+    /// Appends agent `agent`'s actor input to `out`: `local` (its observation,
+    /// [`ObservationLayout::actor_observation`]), `goal`, then the neighbours'
+    /// slots of `prev_action` (the joint action of the previous step).
     pub fn push_actor_input(&self, agent: usize, local: &[f32], goal: &[f32], prev_action: &[f32], out: &mut Vec<f32>) {
         out.extend_from_slice(local);
         out.extend_from_slice(goal);
@@ -107,7 +165,8 @@ impl ObservationLayout {
         (0..self.spec.agents.len())
             .map(|i| {
                 let mut v = Vec::with_capacity(self.actor_input_dim(i));
-                self.push_actor_input(i, &obs.locals[i], &obs.desired_goal, &prev_action.0, &mut v);
+                let seen = self.actor_observation(&obs.locals[i], &obs.global);
+                self.push_actor_input(i, seen, &obs.desired_goal, &prev_action.0, &mut v);
                 v
             })
             .collect()

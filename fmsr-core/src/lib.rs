@@ -90,7 +90,9 @@ pub use shadow::ShadowReward;
 
 /// The items most users need.
 pub mod prelude {
-    pub use crate::agent::{Batch, Communicator, ObservationLayout, ShareMode, ShareTarget, Sharing, SingleProcess};
+    pub use crate::agent::{
+        ActorView, Batch, Communicator, ObservationLayout, ShareMode, ShareTarget, Sharing, SingleProcess,
+    };
     pub use crate::algorithm::{Algorithm, RewardModel, UpdateStats};
     pub use crate::collector::Collector;
     pub use crate::config::{Method, MixingChoice, ShadowConfig, SharingConfig};

@@ -373,8 +373,12 @@ impl ReplayBuffer {
                 let lrow = |t: usize| (ep * (t_max + 1) + t) * d;
                 let local = &self.locals[a][lrow(t)..lrow(t) + d];
                 let next_local = &self.locals[a][lrow(t + 1)..lrow(t + 1) + d];
-                layout.push_actor_input(a, local, goal, prev, &mut b.actor_inputs[a]);
-                layout.push_actor_input(a, next_local, goal, action, &mut b.next_actor_inputs[a]);
+                let (seen, next_seen) = (
+                    layout.actor_observation(local, &self.global[row(t)..row(t) + od]),
+                    layout.actor_observation(next_local, &self.global[row(t + 1)..row(t + 1) + od]),
+                );
+                layout.push_actor_input(a, seen, goal, prev, &mut b.actor_inputs[a]);
+                layout.push_actor_input(a, next_seen, goal, action, &mut b.next_actor_inputs[a]);
             }
             let task = goal_reward(self.achieved_at(ep, t + 1), goal);
             let phi = &self.features[(ep * t_max + t) * k..(ep * t_max + t + 1) * k];
@@ -445,6 +449,7 @@ impl ReplayBuffer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::agent::ActorView;
     use crate::spec::AgentSpec;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
@@ -546,6 +551,34 @@ mod tests {
         }
         let frac = relabelled as f64 / b.size as f64;
         assert!((frac - 0.8).abs() < 0.04, "relabelled fraction {frac}");
+    }
+
+    // Guards the `global` actor view (issue 31's ablation): every actor's
+    // sampled input starts with the global observation of its step (its
+    // local one under the default view, tested above), then the goal and the
+    // neighbours' previous actions.
+    #[test]
+    fn actors_of_the_global_view_sample_the_global_observation() {
+        let spec = spec();
+        let layout = ObservationLayout::new(spec.clone(), vec![vec![1], vec![0]]).unwrap().with_view(ActorView::Global);
+        assert_eq!((layout.actor_input_dim(0), layout.actor_input_dim(1)), (2 + 1 + 2, 2 + 1 + 1));
+        let mut buffer = ReplayBuffer::new(&spec, 100).unwrap();
+        for e in 0..4 {
+            buffer.store(&episode(e)).unwrap();
+        }
+        let reward = |a: &[f32], d: &[f32]| -(a[0] - d[0]).abs();
+        let agent_rewards = |task: f32, _: &[f32], out: &mut [f32]| out.fill(task);
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let b = buffer.sample(200, &HerConfig::default(), &layout, &mut rng, &reward, &agent_rewards).unwrap();
+        for i in 0..b.size {
+            let (obs, next) = (&b.obs[2 * i..2 * i + 2], &b.next_obs[2 * i..2 * i + 2]);
+            assert_eq!(&b.actor_inputs[0][5 * i..5 * i + 3], &[obs[0], obs[1], b.goals[i]]);
+            assert_eq!(&b.next_actor_inputs[0][5 * i..5 * i + 3], &[next[0], next[1], b.goals[i]]);
+            assert_eq!(&b.actor_inputs[1][4 * i..4 * i + 3], &[obs[0], obs[1], b.goals[i]]);
+        }
+        let o = episode(2).observations[3].clone();
+        let inputs = layout.actor_inputs(&o, &JointAction(vec![0.5, 0.25, 0.125]));
+        assert_eq!(inputs, vec![vec![2.0, 3.0, -3.0, 0.25, 0.125], vec![2.0, 3.0, -3.0, 0.5]]);
     }
 
     #[test]
