@@ -468,7 +468,7 @@ fn render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
     let engine = args.engine.map_or(config.engine, Engine::from);
     let target = match &args.out {
         Some(out) => RenderTarget::from_path(out)?,
-        None => RenderTarget::default_for(&RunDir::new(source.home()), args.episode, engine),
+        None => source.render_target(args.episode, Some(engine))?,
     };
     let film = match engine {
         Engine::Rapier => {
@@ -493,8 +493,7 @@ fn render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
 fn render_for_report(runs: &[PathBuf]) {
     for run in runs {
         let Ok(source) = Source::open(run) else { continue };
-        let Ok(config) = source.config() else { continue };
-        let target = fmsr::render::RenderTarget::default_for(&RunDir::new(source.home()), 0, config.engine);
+        let Ok(target) = source.render_target(0, None) else { continue };
         let untrained = matches!(&source, Source::Run(dir) if !dir.checkpoint().exists());
         if target.strip_path().is_some_and(|p| p.exists()) || untrained {
             continue;

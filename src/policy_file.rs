@@ -30,6 +30,7 @@ use fmsr_core::trainer::{read_checkpoint_contents, write_atomic};
 use crate::evaluate::EvalReport;
 use crate::experiment::{Engine, ExperimentConfig, ExperimentError};
 use crate::provenance::Provenance;
+use crate::render::RenderTarget;
 use crate::run::RunDir;
 
 /// The magic number of a policy file.
@@ -293,6 +294,20 @@ impl Source {
             Self::Run(dir) => dir.root(),
             Self::Policy { path, .. } => path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new(".")),
         }
+    }
+
+    /// Where `fmsr render` draws test episode `episode` on `engine` (default:
+    /// the engine it trained on) unless told otherwise:
+    /// `HOME/render/episode-K-ENGINE.gif`, [`Source::home`].
+    ///
+    /// # Errors
+    /// The errors of reading a run's `config.toml`, when `engine` is `None`.
+    pub fn render_target(&self, episode: usize, engine: Option<Engine>) -> Result<RenderTarget, ExperimentError> {
+        let engine = match engine {
+            Some(e) => e,
+            None => self.config()?.engine,
+        };
+        Ok(RenderTarget::default_for(&RunDir::new(self.home()), episode, engine))
     }
 
     /// The path as given.

@@ -69,7 +69,8 @@ impl RunRecord {
             .filter_map(Result::transpose)
             .collect::<Result<_, _>>()?;
         let label = config.label();
-        Ok(Self::assemble(dir, &run, config, metrics, eval, cross_evals, label))
+        let target = crate::render::RenderTarget::default_for(&run, 0, config.engine);
+        Ok(Self::assemble(dir, &target, config, metrics, eval, cross_evals, label))
     }
 
     /// Reads a run directory or a policy file ([`Source::open`]); a policy
@@ -78,36 +79,36 @@ impl RunRecord {
     /// # Errors
     /// The errors of reading the run or the file.
     pub fn open(path: &Path) -> Result<Self, ExperimentError> {
-        match Source::open(path)? {
+        let source = Source::open(path)?;
+        let target = source.render_target(0, None)?;
+        match source {
             Source::Run(_) => Self::load(path),
             Source::Policy { path, file } => {
-                let home = RunDir::new(path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new(".")));
                 let eval = file.eval_on(file.config.engine).cloned();
                 let cross = file.evals.iter().filter(|e| e.engine != file.config.engine.key()).cloned().collect();
                 let label = format!("{} (policy file)", file.config.label());
                 let PolicyFile { config, metrics, .. } = *file;
-                Ok(Self::assemble(&path, &home, config, metrics, eval, cross, label))
+                Ok(Self::assemble(&path, &target, config, metrics, eval, cross, label))
             }
         }
     }
 
-    /// A record of `dir` whose rendering (if drawn) lies in `home`.
+    /// A record of `dir` whose rendering of test episode 0 (if drawn) is `target`.
     fn assemble(
         dir: &Path,
-        home: &RunDir,
+        target: &crate::render::RenderTarget,
         config: ExperimentConfig,
         metrics: Vec<EpochStats>,
         mut eval: Option<EvalReport>,
         mut cross_evals: Vec<EvalReport>,
         label: String,
     ) -> Self {
-        let target = crate::render::RenderTarget::default_for(home, 0, config.engine);
         // The configuration names the run in every table (files of older versions
         // carry only the method's label).
         for e in eval.iter_mut().chain(cross_evals.iter_mut()) {
             e.method.clone_from(&label);
         }
-        let rendering = match (&target, target.strip_path()) {
+        let rendering = match (target, target.strip_path()) {
             (crate::render::RenderTarget::Gif(gif), Some(strip)) if gif.exists() && strip.exists() => {
                 Some((gif.clone(), strip))
             }

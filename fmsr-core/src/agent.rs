@@ -47,7 +47,7 @@ impl ObservationLayout {
     /// let layout = ObservationLayout::new(spec, vec![vec![1], vec![0]]).unwrap();
     /// assert_eq!(layout.actor_input_dim(0), 1 + 1 + 2);
     /// let mut input = Vec::new();
-    /// layout.push_actor_input(0, &[7.0], &[9.0], &[0.1, 0.2, 0.3], &mut input);
+    /// layout.push_actor_input(0, &[7.0], &[1.0, 2.0, 3.0], &[9.0], &[0.1, 0.2, 0.3], &mut input);
     /// assert_eq!(input, vec![7.0, 9.0, 0.2, 0.3]);
     /// ```
     pub fn new(spec: EnvSpec, neighbours: Vec<Vec<usize>>) -> Result<Self, CoreError> {
@@ -80,28 +80,14 @@ impl ObservationLayout {
     ///     action_dim: 3, obs_dim: 3, goal_dim: 1, episode_len: 5, features: vec![], reward_range: (-1.0, 0.0) };
     /// let layout = ObservationLayout::new(spec, vec![vec![1], vec![0]]).unwrap().with_view(ActorView::Global);
     /// assert_eq!(layout.actor_input_dim(0), 3 + 1 + 2);
-    /// assert_eq!(layout.actor_observation(&[7.0], &[1.0, 2.0, 3.0]), &[1.0, 2.0, 3.0]);
+    /// let mut input = Vec::new();
+    /// layout.push_actor_input(0, &[7.0], &[1.0, 2.0, 3.0], &[9.0], &[0.1, 0.2, 0.3], &mut input);
+    /// assert_eq!(input, vec![1.0, 2.0, 3.0, 9.0, 0.2, 0.3]);
     /// ```
     #[must_use]
     pub fn with_view(mut self, view: ActorView) -> Self {
         self.view = view;
         self
-    }
-
-    /// What actors observe.
-    #[must_use]
-    pub fn view(&self) -> ActorView {
-        self.view
-    }
-
-    /// The part of an observation an actor sees: `local` (its own) or
-    /// `global`, by the layout's [`ActorView`].
-    #[must_use]
-    pub fn actor_observation<'a>(&self, local: &'a [f32], global: &'a [f32]) -> &'a [f32] {
-        match self.view {
-            ActorView::Local => local,
-            ActorView::Global => global,
-        }
     }
 
     /// A layout whose neighbours are those of `graph` (node `i` = agent `i`).
@@ -148,11 +134,23 @@ impl ObservationLayout {
         self.spec.obs_dim + self.spec.goal_dim + self.spec.action_dim
     }
 
-    /// Appends agent `agent`'s actor input to `out`: `local` (its observation,
-    /// [`ObservationLayout::actor_observation`]), `goal`, then the neighbours'
-    /// slots of `prev_action` (the joint action of the previous step).
-    pub fn push_actor_input(&self, agent: usize, local: &[f32], goal: &[f32], prev_action: &[f32], out: &mut Vec<f32>) {
-        out.extend_from_slice(local);
+    /// Appends agent `agent`'s actor input to `out`: its observation (`local`,
+    /// its own part of the step's observation, or `global`, the whole of it,
+    /// by the layout's [`ActorView`]), `goal`, then the neighbours' slots of
+    /// `prev_action` (the joint action of the previous step).
+    pub fn push_actor_input(
+        &self,
+        agent: usize,
+        local: &[f32],
+        global: &[f32],
+        goal: &[f32],
+        prev_action: &[f32],
+        out: &mut Vec<f32>,
+    ) {
+        out.extend_from_slice(match self.view {
+            ActorView::Local => local,
+            ActorView::Global => global,
+        });
         out.extend_from_slice(goal);
         for &j in &self.neighbours[agent] {
             out.extend(self.spec.agents[j].action_slots.iter().map(|&s| prev_action[s]));
@@ -165,8 +163,7 @@ impl ObservationLayout {
         (0..self.spec.agents.len())
             .map(|i| {
                 let mut v = Vec::with_capacity(self.actor_input_dim(i));
-                let seen = self.actor_observation(&obs.locals[i], &obs.global);
-                self.push_actor_input(i, seen, &obs.desired_goal, &prev_action.0, &mut v);
+                self.push_actor_input(i, &obs.locals[i], &obs.global, &obs.desired_goal, &prev_action.0, &mut v);
                 v
             })
             .collect()

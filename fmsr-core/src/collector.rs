@@ -354,8 +354,7 @@ impl<E: Env + Send, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
             .map(|i| {
                 let mut rows = Vec::with_capacity(obs.len() * self.layout.actor_input_dim(i));
                 for (o, p) in obs.iter().zip(prev) {
-                    let seen = self.layout.actor_observation(&o.locals[i], &o.global);
-                    self.layout.push_actor_input(i, seen, &o.desired_goal, &p.0, &mut rows);
+                    self.layout.push_actor_input(i, &o.locals[i], &o.global, &o.desired_goal, &p.0, &mut rows);
                 }
                 rows
             })

@@ -373,12 +373,10 @@ impl ReplayBuffer {
                 let lrow = |t: usize| (ep * (t_max + 1) + t) * d;
                 let local = &self.locals[a][lrow(t)..lrow(t) + d];
                 let next_local = &self.locals[a][lrow(t + 1)..lrow(t + 1) + d];
-                let (seen, next_seen) = (
-                    layout.actor_observation(local, &self.global[row(t)..row(t) + od]),
-                    layout.actor_observation(next_local, &self.global[row(t + 1)..row(t + 1) + od]),
-                );
-                layout.push_actor_input(a, seen, goal, prev, &mut b.actor_inputs[a]);
-                layout.push_actor_input(a, next_seen, goal, action, &mut b.next_actor_inputs[a]);
+                let (global, next_global) =
+                    (&self.global[row(t)..row(t) + od], &self.global[row(t + 1)..row(t + 1) + od]);
+                layout.push_actor_input(a, local, global, goal, prev, &mut b.actor_inputs[a]);
+                layout.push_actor_input(a, next_local, next_global, goal, action, &mut b.next_actor_inputs[a]);
             }
             let task = goal_reward(self.achieved_at(ep, t + 1), goal);
             let phi = &self.features[(ep * t_max + t) * k..(ep * t_max + t + 1) * k];

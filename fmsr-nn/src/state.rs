@@ -31,21 +31,36 @@ const MAGIC: &[u8; 8] = b"FMSRNNST";
 /// [`NnError::CorruptState`] naming both versions.
 const STATE_FORMAT: u32 = 4;
 
-/// The header of [`fmsr_core::persist`], then the postcard body.
-pub(crate) fn encode<T: Serialize>(value: &T) -> Result<Vec<u8>, NnError> {
-    persist::encode(MAGIC, STATE_FORMAT, value).map_err(|e| NnError::Backend { what: "state", reason: e.to_string() })
+/// How a state is framed: [`fmsr_core::persist`]'s header (magic, version,
+/// checksum) with the kind of state named in errors.
+struct Framing {
+    magic: &'static [u8; 8],
+    version: u32,
+    what: &'static str,
 }
 
-/// The inverse of [`encode`].
-pub(crate) fn decode<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, NnError> {
-    persist::decode(MAGIC, STATE_FORMAT, bytes).map_err(|e| {
+/// The whole learner ([`LearnerState`]).
+const LEARNER: Framing = Framing { magic: MAGIC, version: STATE_FORMAT, what: "learner state" };
+
+/// The acting half ([`PolicyState`]): version 1.
+const POLICY: Framing = Framing { magic: b"FMSRNNPO", version: 1, what: "policy state" };
+
+/// The header of [`fmsr_core::persist`], then the postcard body.
+fn encode<T: Serialize>(framing: &Framing, value: &T) -> Result<Vec<u8>, NnError> {
+    persist::encode(framing.magic, framing.version, value)
+        .map_err(|e| NnError::Backend { what: framing.what, reason: e.to_string() })
+}
+
+/// The inverse of [`encode`]; the error names the byte where reading failed.
+fn decode<T: DeserializeOwned>(framing: &Framing, bytes: &[u8]) -> Result<T, NnError> {
+    persist::decode(framing.magic, framing.version, bytes).map_err(|e| {
         let offset = match e {
             FormatError::Magic { .. } | FormatError::Encode(_) => 0,
             FormatError::Version { .. } => 8,
             FormatError::Checksum => 12,
             FormatError::Body(_) => persist::HEADER_LEN,
         };
-        NnError::CorruptState { offset, reason: format!("learner state: {e}") }
+        NnError::CorruptState { offset, reason: format!("{}: {e}", framing.what) }
     })
 }
 
@@ -86,12 +101,12 @@ impl Learner {
             replay: include_storage.then(|| self.replay.clone()),
             extra,
         };
-        crate::state::encode(&state)
+        encode(&LEARNER, &state)
     }
 
     /// Restores a state written by [`Learner::save`]; returns its `extra`.
     pub(crate) fn load(&mut self, algorithm: &str, bytes: &[u8]) -> Result<Vec<f64>, NnError> {
-        let state: LearnerState = crate::state::decode(bytes)?;
+        let state: LearnerState = decode(&LEARNER, bytes)?;
         let mismatch =
             |what: &str, expected: String, found: String| NnError::StateMismatch { what: what.into(), expected, found };
         if state.algorithm != algorithm {
@@ -159,9 +174,9 @@ impl Learner {
         let (g, k) = self.locate(i)?;
         let group = &self.groups[g];
         let check = |what: String, flat: &[f32], expected: usize| check_values(|| what.clone(), flat, expected);
+        self.check_actor_state(i, &s.actor, &s.actor_norm)?;
         let actor_len = group.actor_layout.shapes[k].num_params();
-        check(format!("agent {i} actor"), &s.actor, actor_len)
-            .and_then(|()| check(format!("agent {i} target actor"), &s.actor_target, actor_len))
+        check(format!("agent {i} target actor"), &s.actor_target, actor_len)
             .map_err(|e| state_mismatch(i, "actor", e))?;
         let critics = group.nets.critics.nets.len();
         if s.critics.len() != critics || s.critic_targets.len() != critics {
@@ -176,13 +191,6 @@ impl Learner {
             check(format!("agent {i} critic"), c, critic_len)
                 .and_then(|()| check(format!("agent {i} target critic"), t, critic_len))
                 .map_err(|e| state_mismatch(i, "critic", e))?;
-        }
-        if s.actor_norm.dim() != self.actor_norms[i].dim() {
-            return Err(NnError::StateMismatch {
-                what: format!("agent {i} actor normaliser"),
-                expected: self.actor_norms[i].dim().to_string(),
-                found: s.actor_norm.dim().to_string(),
-            });
         }
         Ok(())
     }
@@ -248,12 +256,6 @@ fn state_mismatch(i: usize, what: &str, e: NnError) -> NnError {
     }
 }
 
-/// The magic number of a policy state ([`Learner::save_policy`]).
-const POLICY_MAGIC: &[u8; 8] = b"FMSRNNPO";
-
-/// The version of [`PolicyState`]'s layout.
-const POLICY_FORMAT: u32 = 1;
-
 /// The acting half of a learner: each agent's actor, in its own
 /// [`crate::NetShape`] layout, and its input normaliser. No critics, targets,
 /// optimiser state, RNG or replay: what a trained policy file carries, and
@@ -270,16 +272,6 @@ struct ActorState {
     actor_norm: Normalizer,
 }
 
-fn decode_policy(bytes: &[u8]) -> Result<PolicyState, NnError> {
-    persist::decode(POLICY_MAGIC, POLICY_FORMAT, bytes)
-        .map_err(|e| NnError::CorruptState { offset: 0, reason: format!("policy state: {e}") })
-}
-
-fn encode_policy(state: &PolicyState) -> Result<Vec<u8>, NnError> {
-    persist::encode(POLICY_MAGIC, POLICY_FORMAT, state)
-        .map_err(|e| NnError::Backend { what: "policy state", reason: e.to_string() })
-}
-
 /// The policy state ([`fmsr_core::policy::PolicyState::save_policy`]) held in
 /// a whole learner state (`Algorithm::save_state`, as a checkpoint stores it):
 /// every agent's actor and input normaliser, without building a learner, so a
@@ -288,9 +280,9 @@ fn encode_policy(state: &PolicyState) -> Result<Vec<u8>, NnError> {
 /// # Errors
 /// [`NnError::CorruptState`] when `learner_state` is not a learner state of this build.
 pub fn policy_from_learner_state(learner_state: &[u8]) -> Result<Vec<u8>, NnError> {
-    let state: LearnerState = decode(learner_state)?;
+    let state: LearnerState = decode(&LEARNER, learner_state)?;
     let actors = state.agents.into_iter().map(|a| ActorState { actor: a.actor, actor_norm: a.actor_norm }).collect();
-    encode_policy(&PolicyState { algorithm: state.algorithm, actors })
+    encode(&POLICY, &PolicyState { algorithm: state.algorithm, actors })
 }
 
 impl Learner {
@@ -303,7 +295,7 @@ impl Learner {
                 actors.push(ActorState { actor: flat, actor_norm: self.actor_norms[i].clone() });
             }
         }
-        encode_policy(&PolicyState { algorithm: algorithm.to_owned(), actors })
+        encode(&POLICY, &PolicyState { algorithm: algorithm.to_owned(), actors })
     }
 
     /// Restores a state written by [`Learner::save_policy`] (or
@@ -311,7 +303,7 @@ impl Learner {
     /// and their normalisers; critics, optimisers, RNG and replay stay as
     /// they are. Everything is checked before anything changes.
     pub(crate) fn load_policy(&mut self, algorithm: &str, bytes: &[u8]) -> Result<(), NnError> {
-        let state = decode_policy(bytes)?;
+        let state: PolicyState = decode(&POLICY, bytes)?;
         if state.algorithm != algorithm {
             return Err(NnError::StateMismatch {
                 what: "algorithm".into(),
@@ -327,7 +319,7 @@ impl Learner {
             });
         }
         for (i, a) in state.actors.iter().enumerate() {
-            self.check_actor_state(i, a)?;
+            self.check_actor_state(i, &a.actor, &a.actor_norm)?;
         }
         for group in &mut self.groups {
             let flats: Vec<Vec<f32>> = state.actors[group.agents.clone()].iter().map(|a| a.actor.clone()).collect();
@@ -340,16 +332,17 @@ impl Learner {
         Ok(())
     }
 
-    /// Checks agent `i`'s saved actor and normaliser against this learner's shapes.
-    fn check_actor_state(&self, i: usize, a: &ActorState) -> Result<(), NnError> {
+    /// Checks agent `i`'s saved actor and normaliser against this learner's
+    /// shapes (of a whole state and of a policy state alike).
+    fn check_actor_state(&self, i: usize, actor: &[f32], norm: &Normalizer) -> Result<(), NnError> {
         let (g, k) = self.locate(i)?;
         let expected = self.groups[g].actor_layout.shapes[k].num_params();
-        check_values(|| format!("agent {i} actor"), &a.actor, expected).map_err(|e| state_mismatch(i, "actor", e))?;
-        if a.actor_norm.dim() != self.actor_norms[i].dim() {
+        check_values(|| format!("agent {i} actor"), actor, expected).map_err(|e| state_mismatch(i, "actor", e))?;
+        if norm.dim() != self.actor_norms[i].dim() {
             return Err(NnError::StateMismatch {
                 what: format!("agent {i} actor normaliser"),
                 expected: self.actor_norms[i].dim().to_string(),
-                found: a.actor_norm.dim().to_string(),
+                found: norm.dim().to_string(),
             });
         }
         Ok(())

@@ -10,18 +10,7 @@ mod common;
 
 use fmsr_core::agent::ObservationLayout;
 use fmsr_core::policy::PolicyOutput;
-use fmsr_core::replay::ReplayConfig;
 use fmsr_nn::prelude::*;
-
-fn build(kind: AlgorithmKind, layout: &ObservationLayout, net: NetworkConfig) -> AnyLearner {
-    let replay = ReplayConfig { batch_size: 16, batches: 2, ..ReplayConfig::default() };
-    let parts = LearnerParts::new(layout.clone(), net, replay, 0.9);
-    match kind {
-        AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new()).unwrap()),
-        AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, Matd3Config::new()).unwrap()),
-        AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, MasacConfig::new()).unwrap()),
-    }
-}
 
 fn net(seed: u64, stacking: Stacking) -> NetworkConfig {
     NetworkConfig::new().with_hidden(24).with_layers(2).with_seed(seed).with_stacking(stacking)
@@ -30,7 +19,7 @@ fn net(seed: u64, stacking: Stacking) -> NetworkConfig {
 /// A learner of `kind` after two cycles of learning.
 fn trained(kind: AlgorithmKind, layout: &ObservationLayout, stacking: Stacking) -> AnyLearner {
     let rewards = common::L1Rewards(layout.spec().agents.len());
-    let mut a = build(kind, layout, net(21, stacking));
+    let mut a = common::learner(kind, layout, net(21, stacking));
     for e in 0..2 {
         a.store(&common::episode(layout, e)).unwrap();
         a.update(&rewards).unwrap();
@@ -54,7 +43,7 @@ fn a_loaded_policy_acts_as_the_saved_one() {
             let policy = a.save_policy().unwrap();
             let expected = a.act(&x, 4, ActMode::Evaluate).unwrap();
             for to in [Stacking::PerAgent, Stacking::All] {
-                let mut b = build(kind, &layout, net(99, to));
+                let mut b = common::learner(kind, &layout, net(99, to));
                 let before = b.act(&x, 4, ActMode::Evaluate).unwrap();
                 assert!(max_difference(&before, &expected) > 1e-3, "{kind:?}: the fresh learner acts the same already");
                 b.load_policy(&policy).unwrap();
@@ -78,7 +67,7 @@ fn bad_policies_are_errors_that_change_nothing() {
     let layout = common::layout(&[2, 3, 1], 7, 3);
     let policy = trained(AlgorithmKind::Maddpg, &layout, Stacking::PerAgent).save_policy().unwrap();
     let x = common::inputs(&layout, 2, 3);
-    let mut fresh = build(AlgorithmKind::Maddpg, &layout, net(5, Stacking::PerAgent));
+    let mut fresh = common::learner(AlgorithmKind::Maddpg, &layout, net(5, Stacking::PerAgent));
     let before = format!("{:?}", fresh.act(&x, 2, ActMode::Evaluate).unwrap());
 
     let mut flipped = policy.clone();
@@ -91,10 +80,10 @@ fn bad_policies_are_errors_that_change_nothing() {
     let state = fresh.save_state(false).unwrap();
     assert!(matches!(fresh.load_policy(&state), Err(NnError::CorruptState { .. })));
 
-    let wide = build(AlgorithmKind::Maddpg, &layout, net(5, Stacking::PerAgent).with_hidden(32));
+    let wide = common::learner(AlgorithmKind::Maddpg, &layout, net(5, Stacking::PerAgent).with_hidden(32));
     let other_layout = common::layout(&[2, 3], 7, 3);
-    let fewer = build(AlgorithmKind::Maddpg, &other_layout, net(5, Stacking::PerAgent));
-    let td3 = build(AlgorithmKind::Matd3, &layout, net(5, Stacking::PerAgent));
+    let fewer = common::learner(AlgorithmKind::Maddpg, &other_layout, net(5, Stacking::PerAgent));
+    let td3 = common::learner(AlgorithmKind::Matd3, &layout, net(5, Stacking::PerAgent));
     for (mut learner, what) in [(wide, "actor"), (fewer, "agents"), (td3, "algorithm")] {
         let err = learner.load_policy(&policy).unwrap_err();
         assert!(matches!(err, NnError::StateMismatch { .. }) && err.to_string().contains(what), "{err}");

@@ -7,19 +7,7 @@
 
 mod common;
 
-use fmsr_core::agent::ObservationLayout;
-use fmsr_core::replay::ReplayConfig;
 use fmsr_nn::prelude::*;
-
-fn build(kind: AlgorithmKind, layout: &ObservationLayout, net: NetworkConfig) -> AnyLearner {
-    let replay = ReplayConfig { batch_size: 16, batches: 2, ..ReplayConfig::default() };
-    let parts = LearnerParts::new(layout.clone(), net, replay, 0.9);
-    match kind {
-        AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new()).unwrap()),
-        AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, Matd3Config::new()).unwrap()),
-        AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, MasacConfig::new()).unwrap()),
-    }
-}
 
 fn net(seed: u64) -> NetworkConfig {
     NetworkConfig::new().with_hidden(24).with_layers(2).with_seed(seed)
@@ -31,13 +19,13 @@ fn round_trip_is_bit_exact_for_every_algorithm() {
     let rewards = common::L1Rewards(3);
     for (kind, stacking) in AlgorithmKind::ALL.into_iter().flat_map(|k| [(k, Stacking::PerAgent), (k, Stacking::All)]) {
         let net = |seed| net(seed).with_stacking(stacking);
-        let mut a = build(kind, &layout, net(21));
+        let mut a = common::learner(kind, &layout, net(21));
         for e in 0..2 {
             a.store(&common::episode(&layout, e)).unwrap();
             a.update(&rewards).unwrap();
         }
         let bytes = a.save_state(true).unwrap();
-        let mut b = build(kind, &layout, net(99));
+        let mut b = common::learner(kind, &layout, net(99));
         b.load_state(&bytes).unwrap();
         let x = common::inputs(&layout, 4, 7);
         let (xa, xb) = (a.act(&x, 4, ActMode::Explore).unwrap(), b.act(&x, 4, ActMode::Explore).unwrap());

@@ -91,6 +91,22 @@ pub fn parts(layout: &ObservationLayout, net: fmsr_nn::NetworkConfig, gamma: f64
     fmsr_nn::LearnerParts::new(layout.clone(), net, fmsr_core::replay::ReplayConfig::default(), gamma)
 }
 
+/// A learner of `kind` with `net`, small batches (16 samples, 2 gradient steps a cycle), discount 0.9.
+pub fn learner(
+    kind: fmsr_nn::AlgorithmKind,
+    layout: &ObservationLayout,
+    net: fmsr_nn::NetworkConfig,
+) -> fmsr_nn::AnyLearner {
+    use fmsr_nn::{AlgorithmKind, AnyLearner, Maddpg, MaddpgConfig, Masac, MasacConfig, Matd3, Matd3Config};
+    let replay = fmsr_core::replay::ReplayConfig { batch_size: 16, batches: 2, ..Default::default() };
+    let parts = fmsr_nn::LearnerParts::new(layout.clone(), net, replay, 0.9);
+    match kind {
+        AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new()).unwrap()),
+        AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, Matd3Config::new()).unwrap()),
+        AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, MasacConfig::new()).unwrap()),
+    }
+}
+
 /// One row of actor inputs per agent.
 pub fn inputs(layout: &ObservationLayout, n: usize, seed: u64) -> Vec<Vec<f32>> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
