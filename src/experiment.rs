@@ -54,8 +54,8 @@ use fmsr_core::replay::ReplayConfig;
 use fmsr_envs::shadow_hand::ShadowHandConfig;
 use fmsr_graph::Graph;
 use fmsr_nn::{
-    AlgorithmKind, AnyLearner, Device, DeviceSpec, LearnerParts, Maddpg, MaddpgConfig, Masac, MasacConfig, Matd3,
-    Matd3Config, NetworkConfig, Teammates,
+    AlgorithmKind, AnyLearner, CriticSharing, Device, DeviceSpec, LearnerParts, Maddpg, MaddpgConfig, Masac,
+    MasacConfig, Matd3, Matd3Config, NetworkConfig, Teammates,
 };
 
 /// The timestep of the Shadow Hand model (s); one env step is `substeps` of them.
@@ -441,6 +441,16 @@ impl ExperimentConfig {
             AlgorithmKind::Masac => self.masac_config().validate()?,
         }
         parse_device(&self.device)?;
+        if self.networks.critic == CriticSharing::Shared && self.method.shadow() {
+            return Err(ExperimentError::Config {
+                key: "networks.critic".into(),
+                reason: format!(
+                    "\"shared\" gives every agent one critic, but {} gives each finger its own shadow reward; \
+                     use \"shared_trunk\" (a head per agent)",
+                    self.method.label()
+                ),
+            });
+        }
         if self.name.trim().is_empty() || self.name.contains(['/', '\\']) {
             return Err(ExperimentError::Config { key: "name".into(), reason: "must be a non-empty file name".into() });
         }
@@ -457,8 +467,10 @@ impl ExperimentConfig {
     /// `Dense+FMSR+IS`), followed by the number of agents when the hand is not
     /// split into the paper's six (e.g. `Sparse, 1 agent`), and by
     /// `current teammates` when the actors' loss takes the teammates' current
-    /// policies ([`Teammates::Current`]), so that an ablation is never pooled
-    /// with the method's runs.
+    /// policies ([`Teammates::Current`]), `global actors`
+    /// ([`ActorView::Global`]) and `shared critic (trunk)`
+    /// ([`CriticSharing`]), so that an ablation is never pooled with the
+    /// method's runs.
     #[must_use]
     pub fn label(&self) -> String {
         let mut label = match &self.env.agents {
@@ -473,6 +485,11 @@ impl ExperimentConfig {
         }
         if self.graph.actor_observation == ActorView::Global {
             label.push_str(", global actors");
+        }
+        match self.networks.critic {
+            CriticSharing::PerAgent => {}
+            CriticSharing::SharedTrunk => label.push_str(", shared critic trunk"),
+            CriticSharing::Shared => label.push_str(", shared critic"),
         }
         label
     }

@@ -278,6 +278,68 @@ fn global_actors_train_and_are_told_apart() {
     assert!(!out.status.success() && text(&out).contains("actor_observation"), "{}", text(&out));
 }
 
+/// The tiny config with `networks.critic = critic` and method `method`.
+fn critic_config(dir: &Path, name: &str, method: &str, critic: &str) -> PathBuf {
+    let mut text = common::tiny_config_text()
+        .replace("method = \"dense_fmsr_is\"", &format!("method = \"{method}\""))
+        .replace("layers = 2\n", &format!("layers = 2\ncritic = \"{critic}\"\n"));
+    if method == "sparse" {
+        // Sparse has no shadow rewards and no information sharing: drop their sections.
+        for section in ["[trainer.shadow]", "[sharing]"] {
+            let start = text.find(section).unwrap();
+            let end = text[start + 1..].find("\n[").map_or(text.len(), |e| start + e + 2);
+            text.replace_range(start..end, "");
+        }
+    }
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+// Guards the `networks.critic` switch (issue 31): a critic trunk shared by
+// the agents and one critic for all train on the hand and are named in the
+// label; one critic is refused where shadow rewards give each finger its own
+// reward; a checkpoint of per-agent critics is not resumed as shared ones.
+#[test]
+fn shared_critics_train_and_are_told_apart() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (name, method, critic, label) in [
+        ("trunk", "dense_fmsr_is", "shared_trunk", "| Dense+FMSR+IS, shared critic trunk |"),
+        ("one", "sparse", "shared", "| Sparse, shared critic |"),
+    ] {
+        let config = critic_config(tmp.path(), name, method, critic);
+        let run = tmp.path().join(name);
+        let out = fmsr(&["train", "--config", config.to_str().unwrap(), "--out", run.to_str().unwrap(), "--quiet"]);
+        assert!(out.status.success(), "{}", text(&out));
+        let written = std::fs::read_to_string(run.join("config.toml")).unwrap();
+        assert!(written.contains(&format!("critic = \"{critic}\"")), "{written}");
+        let out = fmsr(&["eval", run.to_str().unwrap()]);
+        assert!(out.status.success() && text(&out).contains(label), "{}", text(&out));
+    }
+
+    let bad = critic_config(tmp.path(), "bad", "dense_fmsr_is", "shared");
+    let out = fmsr(&["train", "--config", bad.to_str().unwrap(), "--out", tmp.path().join("bad").to_str().unwrap()]);
+    assert!(!out.status.success() && text(&out).contains("networks.critic"), "{}", text(&out));
+
+    // A run of per-agent critics resumed as a shared trunk: on the CPU the
+    // groups differ (one per agent against one of all); with one group for
+    // both, the saved values tell them apart.
+    for (stacking, expected) in [("auto", "shared critics need one group"), ("all", "networks.critic")] {
+        let config = critic_config(tmp.path(), stacking, "dense_fmsr_is", "per_agent");
+        let with_stacking = std::fs::read_to_string(&config)
+            .unwrap()
+            .replace("critic = \"per_agent\"\n", &format!("critic = \"per_agent\"\nstacking = \"{stacking}\"\n"));
+        std::fs::write(&config, with_stacking).unwrap();
+        let run = tmp.path().join(format!("own_{stacking}"));
+        let out = fmsr(&["train", "--config", config.to_str().unwrap(), "--out", run.to_str().unwrap(), "--quiet"]);
+        assert!(out.status.success(), "{}", text(&out));
+        let written = std::fs::read_to_string(run.join("config.toml")).unwrap();
+        std::fs::write(run.join("config.toml"), written.replace("\"per_agent\"", "\"shared_trunk\"")).unwrap();
+        let out = fmsr(&["train", "--out", run.to_str().unwrap(), "--resume", "--epochs", "2"]);
+        assert!(!out.status.success() && text(&out).contains(expected), "{}", text(&out));
+    }
+}
+
 /// The RGBA frames of a GIF file.
 fn gif_frames(path: &Path) -> Vec<Vec<u8>> {
     let mut options = gif::DecodeOptions::new();

@@ -82,6 +82,59 @@ pub struct NetworkConfig {
     /// How the agents' networks are stacked into batched modules.
     #[config(default = "Stacking::Auto")]
     pub stacking: Stacking,
+    /// Which parts of the critics the agents share (default: none, the paper's MAGCLA).
+    #[config(default = "CriticSharing::PerAgent")]
+    pub critic: CriticSharing,
+}
+
+/// Which parts of the critics the agents share: an ablation of the paper's
+/// design, in which every agent trains its own critic (MAGCLA, section III).
+///
+/// Every critic sees the same input, the global observation, the goal and the
+/// joint action, so a shared part computes one value for all agents:
+///
+/// ```text
+/// per_agent      Q_i(x, g, a) = w_i . h_i(x, g, a) + b_i      six trunks, six heads (default)
+/// shared_trunk   Q_i(x, g, a) = w_i . h(x, g, a) + b_i        one trunk, a head per agent
+/// shared         Q_i(x, g, a) = Q(x, g, a)                    one critic for all
+/// ```
+///
+/// A shared part is trained on the sum of the agents' TD losses (eq. 7), so
+/// it takes the sum of their gradients. `shared` fits agents that share one
+/// reward (Sparse): with different rewards one critic would regress on their
+/// mean. Both need one stack of every agent ([`Stacking::All`], which
+/// [`Stacking::Auto`] then chooses) and no information sharing of the critics
+/// (a shared trunk is already at consensus).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum CriticSharing {
+    /// Each agent its own critic (the paper's MAGCLA; default).
+    #[default]
+    PerAgent,
+    /// One critic trunk (every hidden layer) for all agents, a head per agent.
+    SharedTrunk,
+    /// One critic for all agents, head included.
+    Shared,
+}
+
+impl CriticSharing {
+    /// How many of the critic's `layers + 1` linear layers (input first) are
+    /// held once for all agents.
+    ///
+    /// ```
+    /// use fmsr_nn::CriticSharing;
+    /// assert_eq!(CriticSharing::PerAgent.shared_layers(3), 0);
+    /// assert_eq!(CriticSharing::SharedTrunk.shared_layers(3), 3);
+    /// assert_eq!(CriticSharing::Shared.shared_layers(3), 4);
+    /// ```
+    #[must_use]
+    pub fn shared_layers(self, layers: usize) -> usize {
+        match self {
+            Self::PerAgent => 0,
+            Self::SharedTrunk => layers,
+            Self::Shared => layers + 1,
+        }
+    }
 }
 
 /// How the agents' networks are grouped into stacked modules
@@ -123,6 +176,11 @@ impl NetworkConfig {
             ("networks.adam_beta1", (0.0..1.0).contains(&self.adam_beta1), "must lie in [0, 1)"),
             ("networks.adam_beta2", (0.0..1.0).contains(&self.adam_beta2), "must lie in [0, 1)"),
             ("networks.adam_epsilon", self.adam_epsilon.is_finite() && self.adam_epsilon > 0.0, "must be > 0"),
+            (
+                "networks.critic",
+                self.critic == CriticSharing::PerAgent || self.stacking != Stacking::PerAgent,
+                "shared critics need the agents in one stack: set networks.stacking to \"all\" or \"auto\"",
+            ),
         ])
     }
 }

@@ -196,6 +196,8 @@ pub(crate) struct GroupSpec<'a> {
     pub(crate) layers: usize,
     pub(crate) seed: u64,
     pub(crate) critics: usize,
+    /// The critics' leading layers held once for the group ([`crate::CriticSharing`]).
+    pub(crate) critic_shared: usize,
     pub(crate) head_mult: usize,
     /// Whether information sharing mixes the actors' / critics' trunks (they then start equal).
     pub(crate) same_trunks: (bool, bool),
@@ -244,6 +246,7 @@ impl Group {
             StackedMlpConfig::new(vec![spec.critic_input; range.len()], spec.hidden, spec.layers, vec![1; range.len()])
                 .with_seed(spec.seed)
                 .with_streams(range.map(|i| 8 * i as u64 + 1 + 2 * c as u64).collect())
+                .with_shared_layers(spec.critic_shared)
         };
         let actor_config = actor(r.clone());
         let (actor_layout, critic_layout) = (actor_config.layout(), critic(r.clone(), 0).layout());

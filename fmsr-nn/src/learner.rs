@@ -26,7 +26,7 @@ use fmsr_graph::MixingMatrix;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::config::{NetworkConfig, Stacking};
+use crate::config::{CriticSharing, NetworkConfig, Stacking};
 use crate::error::{NnError, check_values};
 use crate::group::{Group, GroupBatch, GroupSpec, to_vec1};
 use crate::mixing::{all_reduce, mix_gradients, mix_stacks};
@@ -173,12 +173,13 @@ fn check_parts(layout: &ObservationLayout, gamma: f64, sharing: Option<&Sharing>
     }
 }
 
-/// The agent ranges of the groups `stacking` asks for on `device`.
-fn group_ranges(stacking: Stacking, agents: usize, device: &Device) -> Vec<std::ops::Range<usize>> {
-    let per_agent = match stacking {
+/// The agent ranges of the groups `net.stacking` asks for on `device`
+/// (one group when the agents share critics).
+fn group_ranges(net: &NetworkConfig, agents: usize, device: &Device) -> Vec<std::ops::Range<usize>> {
+    let per_agent = match net.stacking {
         Stacking::PerAgent => true,
         Stacking::All => false,
-        Stacking::Auto => *device == Device::flex(),
+        Stacking::Auto => *device == Device::flex() && net.critic == CriticSharing::PerAgent,
     };
     if per_agent { (0..agents).map(|i| i..i + 1).collect() } else { std::iter::once(0..agents).collect() }
 }
@@ -235,6 +236,14 @@ impl Learner {
         check_parts(&layout, gamma, sharing.as_ref())?;
         let spec = layout.spec().clone();
         let sharing = InformationSharing::new(sharing);
+        if net.critic != CriticSharing::PerAgent && sharing.shares(NetworkGroup::Critics) {
+            return Err(NnError::Sharing {
+                reason: format!(
+                    "networks.critic = {:?} already shares the critics' trunk; information sharing can mix only the actors",
+                    net.critic
+                ),
+            });
+        }
         let device = device.inner();
         let na = spec.num_agents();
         let inputs: Vec<usize> = (0..na).map(|i| layout.actor_input_dim(i)).collect();
@@ -247,6 +256,7 @@ impl Learner {
             layers: net.layers,
             seed: net.seed,
             critics,
+            critic_shared: net.critic.shared_layers(net.layers),
             head_mult,
             same_trunks: (sharing.shares(NetworkGroup::Actors), sharing.shares(NetworkGroup::Critics)),
             adam: AdamConfig::new()
@@ -254,7 +264,7 @@ impl Learner {
                 .with_beta_2(net.adam_beta2 as f32)
                 .with_epsilon(net.adam_epsilon as f32),
         };
-        let groups: Vec<Group> = group_ranges(net.stacking, na, &device)
+        let groups: Vec<Group> = group_ranges(&net, na, &device)
             .into_iter()
             .enumerate()
             .map(|(g, r)| Group::new(g, r, &group_spec, spec.action_dim, &device))
@@ -727,7 +737,10 @@ impl Learner {
             input.extend(self.perm.iter().map(|&s| actions[r * ad + s]));
         }
         let x = matrix(input, n, od + gd + ad, &self.device).unsqueeze_dim::<3>(0);
-        let q = self.groups[g].nets.critics.nets[0].valid().forward(x).narrow(0, k, 1).reshape([n]);
+        let q = self.groups[g].nets.critics.nets[0].valid().forward(x);
+        // One row for all agents when they share the whole critic.
+        let row = if q.dims()[0] == 1 { 0 } else { k };
+        let q = q.narrow(0, row, 1).reshape([n]);
         to_vec1(q, "q values")
     }
 

@@ -86,7 +86,7 @@ mod workers;
 pub use any::{AlgorithmKind, AnyLearner};
 /// burn's device type, re-exported for [`LearnerParts::with_device`] (e.g. `Device::flex()`).
 pub use burn::tensor::Device;
-pub use config::{MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, Stacking, Teammates};
+pub use config::{CriticSharing, MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, Stacking, Teammates};
 pub use device::{Adapter, DeviceSpec};
 pub use error::NnError;
 pub use learner::LearnerParts;

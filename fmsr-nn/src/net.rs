@@ -123,6 +123,8 @@ pub struct StackLayout {
     pub stacked: NetShape,
     /// `head_cols[i][c]`: the stack column of agent `i`'s head output `c`.
     pub head_cols: Vec<Vec<usize>>,
+    /// The first `shared` layers are held once for all agents (default 0).
+    pub shared: usize,
 }
 
 impl StackLayout {
@@ -146,7 +148,21 @@ impl StackLayout {
             .iter()
             .map(|&d| (0..head_mult).flat_map(|j| (0..d).map(move |k| j * max_out + k)).collect())
             .collect();
-        Self { shapes, stacked: NetShape::mlp(max_in, hidden, layers, head_mult * max_out), head_cols }
+        Self { shapes, stacked: NetShape::mlp(max_in, hidden, layers, head_mult * max_out), head_cols, shared: 0 }
+    }
+
+    /// The same layout with its first `shared` layers held once for all
+    /// agents (capped at the number of layers).
+    ///
+    /// ```
+    /// use fmsr_nn::StackLayout;
+    /// let s = StackLayout::new(&[3, 3], 8, 2, &[1, 1], 1).with_shared(2);
+    /// assert_eq!((0..3).map(|k| s.copies(k)).collect::<Vec<_>>(), vec![1, 1, 2]);
+    /// ```
+    #[must_use]
+    pub fn with_shared(mut self, shared: usize) -> Self {
+        self.shared = shared.min(self.stacked.layers.len());
+        self
     }
 
     /// Number of agents.
@@ -155,18 +171,24 @@ impl StackLayout {
         self.shapes.len()
     }
 
+    /// How many copies layer `k` holds: 1 for a shared layer, else one per agent.
+    #[must_use]
+    pub fn copies(&self, k: usize) -> usize {
+        if k < self.shared { 1 } else { self.agents() }
+    }
+
     /// Each layer of the stack as host data `(weight [A, in, out], bias [A, 1, out])`
     /// holding every agent's flat parameters (padding zero).
     fn pack(&self, flats: &[Vec<f32>]) -> Vec<(Vec<f32>, Vec<f32>)> {
-        let a = self.agents();
         let last = self.stacked.layers.len() - 1;
         self.stacked
             .layers
             .iter()
             .enumerate()
             .map(|(k, &(si, so))| {
+                let a = self.copies(k);
                 let (mut w, mut b) = (vec![0.0; a * si * so], vec![0.0; a * so]);
-                for (i, (shape, flat)) in self.shapes.iter().zip(flats).enumerate() {
+                for (i, (shape, flat)) in self.shapes.iter().zip(flats).take(a).enumerate() {
                     let (ni, no) = shape.layers[k];
                     let at = shape.offset(k);
                     for c in 0..no {
@@ -193,10 +215,11 @@ impl StackLayout {
                 for (k, ((w, b), &(si, so))) in layers.iter().zip(&self.stacked.layers).enumerate() {
                     let (ni, no) = shape.layers[k];
                     let col = |c: usize| if k == last { self.head_cols[i][c] } else { c };
+                    let j = if k < self.shared { 0 } else { i };
                     for r in 0..ni {
-                        flat.extend((0..no).map(|c| w[(i * si + r) * so + col(c)]));
+                        flat.extend((0..no).map(|c| w[(j * si + r) * so + col(c)]));
                     }
-                    flat.extend((0..no).map(|c| b[i * so + col(c)]));
+                    flat.extend((0..no).map(|c| b[j * so + col(c)]));
                 }
                 flat
             })
@@ -261,6 +284,10 @@ pub struct StackedMlpConfig {
     /// First parameter id: layer `k` has ids `id_base + 2k` (weight) and `+ 1` (bias).
     #[config(default = 0)]
     pub id_base: u64,
+    /// The first `shared_layers` layers are held once for all agents
+    /// ([`StackLayout::with_shared`]; at most `layers + 1`, default 0).
+    #[config(default = 0)]
+    pub shared_layers: usize,
 }
 
 impl StackedMlpConfig {
@@ -268,6 +295,7 @@ impl StackedMlpConfig {
     #[must_use]
     pub fn layout(&self) -> StackLayout {
         StackLayout::new(&self.inputs, self.hidden, self.layers, &self.outputs, self.head_mult)
+            .with_shared(self.shared_layers)
     }
 
     /// Every agent's initial flat parameters.
@@ -294,6 +322,14 @@ impl StackedMlpConfig {
         {
             return bad("every width and the number of layers must be positive");
         }
+        if self.shared_layers > self.layers + 1 {
+            return bad("more shared layers than the network has");
+        }
+        let same = |v: &[usize]| v.iter().all(|&w| w == v[0]);
+        if (self.shared_layers > 0 && !same(&self.inputs)) || (self.shared_layers > self.layers && !same(&self.outputs))
+        {
+            return bad("shared layers need agents of one input width (and, for a shared head, one output width)");
+        }
         let layout = self.layout();
         Ok(StackedMlp::from_flats(&layout, &self.initial(), device, self.id_base))
     }
@@ -314,14 +350,13 @@ impl StackedMlp {
     /// The stack holding every agent's `flats` (laid out by `layout`) on `device`.
     #[must_use]
     pub fn from_flats(layout: &StackLayout, flats: &[Vec<f32>], device: &Device, id_base: u64) -> Self {
-        let a = layout.agents();
         let layers = layout
             .pack(flats)
             .into_iter()
             .zip(&layout.stacked.layers)
             .enumerate()
             .map(|(k, ((w, b), &(i, o)))| {
-                let id = id_base + 2 * k as u64;
+                let (id, a) = (id_base + 2 * k as u64, layout.copies(k));
                 let w = Tensor::<3>::from_data(TensorData::new(w, [a, i, o]), device);
                 let b = Tensor::<3>::from_data(TensorData::new(b, [a, 1, o]), device);
                 StackedLinear { weight: leaf(ParamId::from(id), w), bias: leaf(ParamId::from(id + 1), b) }
@@ -451,7 +486,48 @@ mod tests {
             })
     }
 
+    /// Agents of one shape whose first `shared` layers are agent 0's.
+    fn shared_agents() -> impl Strategy<Value = (usize, usize, usize, Vec<Vec<f32>>)> {
+        (1usize..4, 1usize..3)
+            .prop_flat_map(|(n, layers)| (Just(n), Just(layers), 0..=layers + 1))
+            .prop_flat_map(|(n, layers, shared)| {
+                let shape = NetShape::mlp(2, 3, layers, 1);
+                let flats = prop::collection::vec(prop::collection::vec(-1.0f32..1.0, shape.num_params()), n);
+                (Just(n), Just(layers), Just(shared), flats)
+            })
+            .prop_map(|(n, layers, shared, mut flats)| {
+                let end = NetShape::mlp(2, 3, layers, 1).offset(shared);
+                let first = flats[0][..end].to_vec();
+                flats.iter_mut().for_each(|f| f[..end].copy_from_slice(&first));
+                (n, layers, shared, flats)
+            })
+    }
+
     proptest! {
+        // Guards shared layers: a stack holding its first layers once returns
+        // every agent's whole network, and computes for each agent what the
+        // agent's own network computes, on one input broadcast to all (the
+        // critics' TD step) and on an input per agent (their actor step).
+        #[test]
+        fn shared_layers_keep_every_agents_network((n, layers, shared, flats) in shared_agents(), x in -1.0f32..1.0) {
+            let layout = StackLayout::new(&vec![2; n], 3, layers, &vec![1; n], 1).with_shared(shared);
+            let device = Device::flex();
+            let stack = StackedMlp::from_flats(&layout, &flats, &device, 0);
+            prop_assert_eq!(stack.layers[0].weight.val().dims()[0], if shared > 0 { 1 } else { n });
+            prop_assert_eq!(&stack.to_flats(&layout).unwrap(), &flats);
+            let input = |rows: usize| Tensor::<3>::from_data(TensorData::new([x, -0.5 * x].repeat(rows), [rows, 1, 2]), &device);
+            for rows in [1, n] {
+                let y = stack.forward(input(rows)).into_data().try_to_vec::<f32>().unwrap();
+                for (i, flat) in flats.iter().enumerate() {
+                    let single = StackLayout::new(&[2], 3, layers, &[1], 1);
+                    let own = StackedMlp::from_flats(&single, std::slice::from_ref(flat), &device, 0);
+                    let yi = own.forward(input(1)).into_data().try_to_vec::<f32>().unwrap()[0];
+                    let yi_stack = y[if y.len() == 1 { 0 } else { i }];
+                    prop_assert!((yi_stack - yi).abs() <= 1e-5 * (1.0 + yi.abs()), "agent {i}, {rows} input rows");
+                }
+            }
+        }
+
         // Guards the stacking layout: every agent's parameters come back
         // exactly from a stack, whatever the padding.
         #[test]
@@ -480,7 +556,7 @@ mod tests {
             let w = y.dims()[2];
             let y = y.into_data().try_to_vec::<f32>().unwrap();
             for (i, shape) in layout.shapes.iter().enumerate() {
-                let single = StackLayout { shapes: vec![shape.clone()], stacked: shape.clone(), head_cols: vec![(0..shape.layers.last().unwrap().1).collect()] };
+                let single = StackLayout { shapes: vec![shape.clone()], stacked: shape.clone(), head_cols: vec![(0..shape.layers.last().unwrap().1).collect()], shared: 0 };
                 let own = StackedMlp::from_flats(&single, &flats[i..=i], &device, 0);
                 let xi = input[i * width..i * width + ins[i]].to_vec();
                 let yi = own.forward(Tensor::from_data(TensorData::new(xi, [1, 1, ins[i]]), &device)).into_data().try_to_vec::<f32>().unwrap();

@@ -121,13 +121,16 @@ impl Learner {
             || state.critic_optim.len() != sizes.len()
         {
             return Err(mismatch(
-                "agent groups (networks.stacking)",
+                "agent groups (networks.stacking; shared critics need one group)",
                 format!("{sizes:?}"),
                 format!("{:?}", state.group_sizes),
             ));
         }
         for (i, s) in state.agents.iter().enumerate() {
             self.check_agent_state(i, s)?;
+        }
+        for group in &self.groups {
+            check_critic_sharing(group, &state.agents[group.agents.clone()])?;
         }
         if let Some(replay) = &state.replay {
             if !replay.is_compatible(self.layout.spec()) {
@@ -194,6 +197,38 @@ impl Learner {
         }
         Ok(())
     }
+}
+
+/// Checks that saved critics fit the group's [`crate::CriticSharing`]. The
+/// state stores every agent's whole critic, so sharing shows in the values:
+/// a layer held once is equal, bit for bit, across the agents, while the
+/// critics of agents that do not share start from draws of their own, and
+/// their input layers (which no information sharing mixes) never meet.
+fn check_critic_sharing(group: &Group, agents: &[AgentState]) -> Result<(), NnError> {
+    let layout = &group.critic_layout;
+    if agents.len() < 2 {
+        return Ok(());
+    }
+    let end = |k: usize| layout.shapes[0].offset(k);
+    let equal = |flats: Vec<&Vec<f32>>, end: usize| flats.iter().all(|f| f[..end] == flats[0][..end]);
+    let found = |shared: bool| if shared { "critics shared by the agents" } else { "a critic per agent" };
+    for c in 0..agents[0].critics.len() {
+        let online: Vec<&Vec<f32>> = agents.iter().map(|a| &a.critics[c]).collect();
+        let target: Vec<&Vec<f32>> = agents.iter().map(|a| &a.critic_targets[c]).collect();
+        let ok = if layout.shared > 0 {
+            equal(online, end(layout.shared)) && equal(target, end(layout.shared))
+        } else {
+            !equal(online, end(1))
+        };
+        if !ok {
+            return Err(NnError::StateMismatch {
+                what: "critics (networks.critic)".into(),
+                expected: found(layout.shared > 0).into(),
+                found: found(layout.shared == 0).into(),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Rebuilds a group's networks from its agents' checked states, with the same ids.
