@@ -653,4 +653,44 @@ mod label_tests {
         assert_eq!(ablation.label(), "Dense+FMSR+IS, current teammates");
         assert_eq!(method.label(), "Dense+FMSR+IS");
     }
+
+    /// `section.key` → value of every setting of a TOML file (the run's name left out).
+    fn settings(path: &Path) -> std::collections::BTreeMap<String, toml::Value> {
+        let table: toml::Table = std::fs::read_to_string(path).unwrap().parse().unwrap();
+        let mut out = std::collections::BTreeMap::new();
+        for (key, value) in table {
+            match value {
+                toml::Value::Table(section) => {
+                    out.extend(section.into_iter().map(|(k, v)| (format!("{key}.{k}"), v)));
+                }
+                value if key != "name" => drop(out.insert(key, value)),
+                _ => {}
+            }
+        }
+        out
+    }
+
+    // Guards what the ablations of docs/results.md claim: each config in
+    // configs/lite/ablation/ is its method's lite config with one setting
+    // changed, and its runs are labelled apart from the method's.
+    #[test]
+    fn every_ablation_changes_one_setting_of_its_methods_config() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/lite");
+        let mut seen = 0;
+        for entry in std::fs::read_dir(root.join("ablation")).unwrap() {
+            let path = entry.unwrap().path();
+            let a = settings(&path);
+            let name = |key: &str| a[key].as_str().unwrap().to_string();
+            let base_path = root.join(format!("{}_{}.toml", name("env.object"), name("method")));
+            let b = settings(&base_path);
+            let changed: std::collections::BTreeSet<&String> =
+                a.keys().chain(b.keys()).filter(|k| a.get(*k) != b.get(*k)).collect();
+            assert_eq!(changed.len(), 1, "{} against {}: {changed:?}", path.display(), base_path.display());
+            let (ablation, method) =
+                (ExperimentConfig::load(&path).unwrap(), ExperimentConfig::load(&base_path).unwrap());
+            assert_ne!(ablation.label(), method.label(), "{}", path.display());
+            seen += 1;
+        }
+        assert!(seen >= 5, "{seen} ablation configs");
+    }
 }
