@@ -670,27 +670,50 @@ mod label_tests {
         out
     }
 
+    /// The TOML files of `dir`, sorted.
+    fn toml_files(dir: &Path) -> Vec<std::path::PathBuf> {
+        let mut files: Vec<_> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+            .collect();
+        files.sort();
+        files
+    }
+
+    /// The settings in which the ablation config `path` differs from its
+    /// method's lite config in `root`, and the labels of the two.
+    fn changes(root: &Path, path: &Path) -> (String, std::collections::BTreeSet<String>, [String; 2]) {
+        let a = settings(path);
+        let name = |key: &str| a[key].as_str().unwrap().to_string();
+        let base = format!("{}_{}.toml", name("env.object"), name("method"));
+        let b = settings(&root.join(&base));
+        let changed = a.keys().chain(b.keys()).filter(|k| a.get(*k) != b.get(*k)).cloned().collect();
+        let label = |p: &Path| ExperimentConfig::load(p).unwrap().label();
+        (base.clone(), changed, [label(path), label(&root.join(base))])
+    }
+
     // Guards what the ablations of docs/results.md claim: each config in
     // configs/lite/ablation/ is its method's lite config with one setting
-    // changed, and its runs are labelled apart from the method's.
+    // changed, each in ablation/combined/ changes two or more of those
+    // settings at once, and their runs are labelled apart from the method's.
     #[test]
     fn every_ablation_changes_one_setting_of_its_methods_config() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/lite");
-        let mut seen = 0;
-        for entry in std::fs::read_dir(root.join("ablation")).unwrap() {
-            let path = entry.unwrap().path();
-            let a = settings(&path);
-            let name = |key: &str| a[key].as_str().unwrap().to_string();
-            let base_path = root.join(format!("{}_{}.toml", name("env.object"), name("method")));
-            let b = settings(&base_path);
-            let changed: std::collections::BTreeSet<&String> =
-                a.keys().chain(b.keys()).filter(|k| a.get(*k) != b.get(*k)).collect();
-            assert_eq!(changed.len(), 1, "{} against {}: {changed:?}", path.display(), base_path.display());
-            let (ablation, method) =
-                (ExperimentConfig::load(&path).unwrap(), ExperimentConfig::load(&base_path).unwrap());
-            assert_ne!(ablation.label(), method.label(), "{}", path.display());
-            seen += 1;
+        let mut switches = std::collections::BTreeSet::new();
+        let singles = toml_files(&root.join("ablation"));
+        for path in &singles {
+            let (base, changed, [ablation, method]) = changes(&root, path);
+            assert_eq!(changed.len(), 1, "{} against {base}: {changed:?}", path.display());
+            assert_ne!(ablation, method, "{}", path.display());
+            switches.extend(changed);
         }
-        assert!(seen >= 5, "{seen} ablation configs");
+        assert!(singles.len() >= 5, "{} ablation configs", singles.len());
+        for path in toml_files(&root.join("ablation/combined")) {
+            let (base, changed, [ablation, method]) = changes(&root, &path);
+            assert!(changed.len() >= 2, "{} against {base}: {changed:?}", path.display());
+            assert!(changed.is_subset(&switches), "{}: {changed:?} not all single switches", path.display());
+            assert_ne!(ablation, method, "{}", path.display());
+        }
     }
 }
