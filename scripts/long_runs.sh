@@ -1,0 +1,250 @@
+#!/usr/bin/env bash
+# The keeper of long training runs: runs that take days of wall time, carried
+# across sessions that each end every process, in a home outside the work tree.
+#
+#   scripts/long_runs.sh start CONFIG...   copy the release binary, start each run
+#   scripts/long_runs.sh resume            restart every unfinished run (first thing every session)
+#   scripts/long_runs.sh status            epochs, env steps, success, s/epoch, sessions left, alive
+#   scripts/long_runs.sh record            evaluate new snapshots, copy small files into docs/
+#
+# The home is `$FMSR_LONG_RUNS`, else `$HOME/.local/share/fmsr/long-runs`:
+#
+#   bin/fmsr-<commit>             the binary a run was started with (never changed mid-run)
+#   <run>/keeper.env              BIN, EPOCHS, COMMIT and where the run was started
+#   <run>/config.toml             the experiment as given, with one stepping and one learner thread
+#   <run>/run/                    the `fmsr train` run directory (checkpoint, replay, logs)
+#   <run>/snapshots/epoch-K.fmsr  the policy after epoch K (counted from 0), `fmsr export`
+#   <run>/keeper.log              the driver's and training's output
+#   <run>/keeper.lock             held (flock) by the one driver of the run while it lives
+#
+# Each run is one driver process, started with nohup and nice -n 19, that
+# trains up to the next snapshot epoch (`fmsr train --resume --epochs K+1`),
+# exports the snapshot, and goes on to the next; so a run resumed any number of
+# times trains exactly as an uninterrupted one, and its snapshots are taken
+# from the checkpoint of their own epoch. The driver holds the run's lock for
+# its whole life: a second driver on the same run exits at once, and `fmsr
+# train` itself refuses a run directory another process holds.
+#
+# `record` evaluates, with the work tree's current build, each snapshot not yet
+# evaluated on the fixed test set (the config's [eval]: 100 episodes at 0.4 rad
+# in the paper's configs) and on the validation episodes (seeds disjoint from
+# the test set's, used to choose a snapshot), copies config, provenance,
+# metrics.csv and those evaluations into docs/results/paper_budget/<run>/, and
+# regenerates the section "The paper's budget" of docs/results.md
+# (scripts/long_runs_record.py). Checkpoints, replay and policies stay in the
+# home until a run ends.
+set -euo pipefail
+
+repo=$(cd "$(dirname "$0")/.." && pwd)
+home=${FMSR_LONG_RUNS:-$HOME/.local/share/fmsr/long-runs}
+# Epochs (from 0) after which the policy is exported.
+snapshot_epochs=(0 9 24 49 99 149 199 249 299 349 399)
+# Seconds of training one session gives a run (a session lasts 180 minutes).
+session_seconds=$((170 * 60))
+
+die() { echo "long_runs: $*" >&2; exit 1; }
+log() { echo "[$(date -u +%FT%TZ)] $*"; }
+
+# Epochs trained: the data rows of metrics.csv.
+epochs_done() {
+  local csv=$1/run/metrics.csv
+  if [ -f "$csv" ] && [ -f "$1/run/checkpoint.bin" ]; then echo $(($(wc -l < "$csv") - 1)); else echo 0; fi
+}
+
+# Whether the run's driver is alive: its lock is held.
+alive() { ! flock -n "$1/keeper.lock" true 2>/dev/null; }
+
+# The run's planned epochs (keeper.env).
+planned() { (source "$1/keeper.env"; echo "$EPOCHS"); }
+
+finished() {
+  local dir=$1 k
+  [ "$(epochs_done "$dir")" -ge "$(planned "$dir")" ] || return 1
+  for k in "${snapshot_epochs[@]}"; do
+    [ "$k" -ge "$(planned "$dir")" ] || [ -f "$dir/snapshots/epoch-$(printf %03d "$k").fmsr" ] || return 1
+  done
+}
+
+# The driver of one run (runs in the background, holding the run's lock).
+drive() {
+  local dir=$1
+  exec 9> "$dir/keeper.lock"
+  flock -n 9 || { log "another driver holds $dir"; exit 0; }
+  # shellcheck disable=SC1091
+  source "$dir/keeper.env"
+  export RAYON_NUM_THREADS=1
+  log "driver $$ on $(basename "$dir") with $BIN"
+  local k target done snap
+  for k in "${snapshot_epochs[@]}"; do
+    target=$((k + 1))
+    [ "$target" -le "$EPOCHS" ] || break
+    done=$(epochs_done "$dir")
+    if [ "$done" -lt "$target" ]; then
+      if [ ! -f "$dir/run/checkpoint.bin" ]; then
+        # Nothing to resume (a first epoch that never ended): start afresh, in
+        # the checkout it was started from so provenance.json names the commit.
+        rm -rf "$dir/run"
+        (cd "$START_DIR" 2> /dev/null || cd "$dir"
+         "$BIN" train --config "$dir/config.toml" --out "$dir/run" --epochs "$target")
+      else
+        "$BIN" train --out "$dir/run" --resume --epochs "$target"
+      fi
+      done=$(epochs_done "$dir")
+    fi
+    snap=$dir/snapshots/epoch-$(printf %03d "$k").fmsr
+    if [ ! -f "$snap" ]; then
+      if [ "$done" -ne "$target" ]; then
+        log "snapshot of epoch $k missed: the run is at $done epochs"
+        continue
+      fi
+      mkdir -p "$dir/snapshots"
+      "$BIN" export "$dir/run" --out "$snap.tmp"
+      mv "$snap.tmp" "$snap"
+      log "snapshot of epoch $k: $snap"
+    fi
+  done
+  if [ "$(epochs_done "$dir")" -lt "$EPOCHS" ]; then
+    "$BIN" train --out "$dir/run" --resume --epochs "$EPOCHS"
+  fi
+  log "finished: $(epochs_done "$dir") of $EPOCHS epochs"
+}
+
+launch() {
+  local dir=$1
+  if alive "$dir"; then
+    echo "$(basename "$dir"): training (driver alive), left alone"
+    return
+  fi
+  if finished "$dir"; then
+    echo "$(basename "$dir"): finished ($(epochs_done "$dir") epochs)"
+    return
+  fi
+  setsid nohup nice -n 19 "$repo/scripts/long_runs.sh" _drive "$dir" >> "$dir/keeper.log" 2>&1 < /dev/null &
+  # The driver takes its lock at once; wait for it so a second call sees it.
+  local i
+  for i in $(seq 50); do alive "$dir" && break; sleep 0.1; done
+  echo "$(basename "$dir"): started at epoch $(epochs_done "$dir") (log $dir/keeper.log)"
+}
+
+# The config with one stepping thread and one learner thread: `threads` in
+# [trainer] and [networks] (neither changes the results).
+one_core_config() {
+  awk '
+    /^\[/ { section = $0 }
+    section == "[trainer]" && /^threads *=/ { next }
+    section == "[networks]" && /^threads *=/ { next }
+    { print }
+    $0 == "[trainer]" { print "threads = 1" }
+    $0 == "[networks]" { print "threads = 1" }
+    END { }
+  ' "$1"
+  grep -q '^\[networks\]' "$1" || printf '\n[networks]\nthreads = 1\n'
+}
+
+start() {
+  [ $# -ge 1 ] || die "usage: $0 start CONFIG..."
+  cd "$repo"
+  git diff --quiet HEAD -- || die "tracked files differ from HEAD: commit first, so the binary is named by the code it was built from"
+  cargo build --release --bin fmsr
+  local commit bin
+  commit=$(git rev-parse --short=10 HEAD)
+  bin=$home/bin/fmsr-$commit
+  mkdir -p "$home/bin"
+  if [ ! -x "$bin" ]; then
+    cp target/release/fmsr "$bin.tmp" && mv "$bin.tmp" "$bin"
+  fi
+  local config name dir epochs
+  for config in "$@"; do
+    [ -f "$config" ] || die "no config $config"
+    name=$(sed -n 's/^name *= *"\(.*\)"$/\1/p' "$config" | head -n 1)
+    [ -n "$name" ] || die "$config names no run (name = \"...\")"
+    epochs=$(awk '/^\[/ { s = $0 } s == "[trainer]" && /^epochs *=/ { print $3; exit }' "$config")
+    [ -n "$epochs" ] || die "$config sets no [trainer] epochs"
+    dir=$home/$name
+    [ ! -e "$dir" ] || die "$dir exists: a run of that name was started before (resume it, or remove it)"
+    mkdir -p "$dir"
+    one_core_config "$config" > "$dir/config.toml"
+    cat > "$dir/keeper.env" << EOF
+BIN=$bin
+EPOCHS=$epochs
+COMMIT=$(git rev-parse HEAD)
+CONFIG=$config
+START_DIR=$repo
+STARTED=$(date -u +%FT%TZ)
+EOF
+    launch "$dir"
+  done
+}
+
+runs() { for d in "$home"/*/; do [ -f "$d/keeper.env" ] && echo "${d%/}"; done; }
+
+resume() {
+  [ -d "$home" ] || { echo "no long-run home at $home (nothing to resume)"; return; }
+  local dir any=0
+  for dir in $(runs); do any=1; launch "$dir"; done
+  [ "$any" = 1 ] || echo "no runs in $home"
+}
+
+status() {
+  [ -d "$home" ] || { echo "no long-run home at $home"; return; }
+  printf '%-20s %9s %10s %6s %6s %8s %13s %s\n' run epochs env_steps train eval s/epoch sessions_left driver
+  local dir
+  for dir in $(runs); do
+    local csv=$dir/run/metrics.csv done total
+    done=$(epochs_done "$dir")
+    total=$(planned "$dir")
+    if [ "$done" -gt 0 ]; then
+      # epoch,success_rate,train_success_rate,drop_rate,env_steps,...,seconds (9th)
+      local last med
+      last=$(tail -n 1 "$csv")
+      med=$(tail -n +2 "$csv" | tail -n 10 | cut -d, -f9 | sort -g | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }')
+      printf '%-20s %4d/%-4d %10s %6.3f %6.3f %8.0f %13.1f %s\n' "$(basename "$dir")" "$done" "$total" \
+        "$(echo "$last" | cut -d, -f5)" "$(echo "$last" | cut -d, -f3)" "$(echo "$last" | cut -d, -f2)" "$med" \
+        "$(awk -v n=$((total - done)) -v s="$med" -v t=$session_seconds 'BEGIN { print n * s / t }')" \
+        "$(alive "$dir" && echo alive || echo stopped)"
+    else
+      printf '%-20s %4d/%-4d %10s %6s %6s %8s %13s %s\n' "$(basename "$dir")" 0 "$total" - - - - - \
+        "$(alive "$dir" && echo alive || echo stopped)"
+    fi
+  done
+}
+
+record() {
+  [ -d "$home" ] || die "no long-run home at $home"
+  cd "$repo"
+  cargo build --release --bin fmsr
+  local fmsr=$repo/target/release/fmsr dir name out snap k
+  for dir in $(runs); do
+    name=$(basename "$dir")
+    out=$repo/docs/results/paper_budget/$name
+    mkdir -p "$out/snapshots"
+    for f in config.toml provenance.json metrics.csv; do
+      [ -f "$dir/run/$f" ] && cp "$dir/run/$f" "$out/$f"
+    done
+    cp "$dir/keeper.env" "$out/keeper.env"
+    for snap in "$dir"/snapshots/epoch-*.fmsr; do
+      [ -f "$snap" ] || continue
+      k=$(basename "$snap" .fmsr)
+      if [ ! -f "$out/snapshots/$k.test.json" ]; then
+        echo "$name $k: the test set"
+        nice -n 5 "$fmsr" eval "$snap" --out "$out/snapshots/$k.test.json" > "$out/snapshots/$k.test.log" 2>&1
+      fi
+      if [ ! -f "$out/snapshots/$k.validation.json" ]; then
+        echo "$name $k: the validation episodes"
+        nice -n 5 "$fmsr" eval "$snap" --episodes-set validation --out "$out/snapshots/$k.validation.json" \
+          > "$out/snapshots/$k.validation.log" 2>&1
+      fi
+    done
+  done
+  python3 "$repo/scripts/long_runs_record.py" --home "$home" --results "$repo/docs/results.md" \
+    --records "$repo/docs/results/paper_budget" --commit "$(git rev-parse --short HEAD)"
+}
+
+case "${1:-}" in
+  start) shift; start "$@" ;;
+  resume) resume ;;
+  status) status ;;
+  record) record ;;
+  _drive) drive "$2" ;;
+  *) die "usage: $0 start CONFIG... | resume | status | record" ;;
+esac
