@@ -69,6 +69,7 @@ pub mod collector;
 pub mod config;
 pub mod env;
 pub mod error;
+pub mod interval;
 pub mod metrics;
 pub mod occupancy;
 pub mod persist;
