@@ -147,11 +147,56 @@ impl Default for EvalConfig {
     }
 }
 
+/// Which episodes an evaluation plays: the fixed test set, reported, or the
+/// validation episodes, on which an epoch, a snapshot or a seed is chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EpisodeSet {
+    /// The fixed test set (paper: 100 episodes), the same for every policy.
+    #[default]
+    Test,
+    /// Held-out episodes whose seeds are disjoint from the test set's.
+    Validation,
+}
+
+impl EpisodeSet {
+    /// `test` or `validation`.
+    #[must_use]
+    pub fn key(self) -> &'static str {
+        match self {
+            Self::Test => "test",
+            Self::Validation => "validation",
+        }
+    }
+}
+
 impl EvalConfig {
-    /// The seeds of the fixed test set.
+    /// The seeds of the fixed test set: `splitmix64(seed + i)`.
     #[must_use]
     pub fn seeds(&self) -> Vec<u64> {
-        (0..self.episodes as u64).map(|i| fmsr_core::trainer::splitmix64(self.seed.wrapping_add(i))).collect()
+        self.seeds_of(EpisodeSet::Test, self.episodes)
+    }
+
+    /// The first `n` seeds of `set`. The test set's are `splitmix64(seed + i)`,
+    /// the validation episodes' `splitmix64(seed + 2^63 + i)`: `splitmix64` is
+    /// a bijection of `u64` and the two sets of inputs do not meet for `n`
+    /// below `2^63`, so no validation episode is ever a test episode.
+    ///
+    /// ```
+    /// use fmsr::experiment::{EpisodeSet, EvalConfig};
+    /// let eval = EvalConfig::default();
+    /// let test = eval.seeds_of(EpisodeSet::Test, 1000);
+    /// let validation = eval.seeds_of(EpisodeSet::Validation, 1000);
+    /// assert_eq!(test[..100], eval.seeds()[..]);
+    /// assert!(validation.iter().all(|s| !test.contains(s)));
+    /// ```
+    #[must_use]
+    pub fn seeds_of(&self, set: EpisodeSet, n: usize) -> Vec<u64> {
+        let base = match set {
+            EpisodeSet::Test => self.seed,
+            EpisodeSet::Validation => self.seed.wrapping_add(1 << 63),
+        };
+        (0..n as u64).map(|i| fmsr_core::trainer::splitmix64(base.wrapping_add(i))).collect()
     }
 }
 
@@ -342,6 +387,17 @@ pub enum ExperimentError {
         /// What is wrong.
         #[source]
         source: CoreError,
+    },
+    /// Another process is writing the run directory (`fmsr train` holds its lock).
+    #[error(
+        "{dir} is being written by another process ({holder}): one `fmsr train` per run directory; \
+         wait for it to end, or stop it, before training or resuming this run"
+    )]
+    RunLocked {
+        /// The run directory.
+        dir: PathBuf,
+        /// Who holds it, as the holder wrote it into the lock file.
+        holder: String,
     },
     /// A frame or an image file could not be drawn or encoded.
     #[error("rendering {what}: {reason}")]

@@ -10,7 +10,7 @@ use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use fmsr::experiment::{Engine, ExperimentConfig};
+use fmsr::experiment::{Engine, EpisodeSet, ExperimentConfig};
 use fmsr::policy_file::{POLICY_FILE_NAME, PolicyFile, Source};
 use fmsr::run::{self, RunDir};
 use fmsr_core::prelude::*;
@@ -88,9 +88,17 @@ struct TrainArgs {
 struct EvalArgs {
     /// The run directory, policy file (`fmsr export`) or directory holding `policy.fmsr` to evaluate.
     run: PathBuf,
-    /// Test episodes, overriding the config (paper: 100).
+    /// Episodes, overriding the config (paper: 100).
     #[arg(long)]
     episodes: Option<usize>,
+    /// Which episodes: the fixed test set (reported) or the validation
+    /// episodes, disjoint from it (to choose an epoch, a snapshot or a seed).
+    #[arg(long, value_enum, default_value = "test")]
+    set: SetArg,
+    /// With a policy file: write this evaluation into the file, in place of
+    /// the one it carries for the same engine and episodes.
+    #[arg(long)]
+    record: bool,
     /// Evaluate on this engine (default: the one the run trained on); another
     /// engine's evaluation goes to `eval-<engine>.json` and into the report's
     /// cross-engine table.
@@ -162,6 +170,21 @@ struct RunArgs {
 }
 
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
+enum SetArg {
+    Test,
+    Validation,
+}
+
+impl From<SetArg> for EpisodeSet {
+    fn from(s: SetArg) -> Self {
+        match s {
+            SetArg::Test => EpisodeSet::Test,
+            SetArg::Validation => EpisodeSet::Validation,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
 enum EngineArg {
     Rapier,
     Mujoco,
@@ -212,7 +235,14 @@ fn main() -> Result<()> {
                 quiet: args.quiet,
             };
             let dir = train(&train_args)?;
-            eval(&EvalArgs { run: dir.root().to_path_buf(), episodes: None, engine: None, out: None })?;
+            eval(&EvalArgs {
+                run: dir.root().to_path_buf(),
+                episodes: None,
+                set: SetArg::Test,
+                record: false,
+                engine: None,
+                out: None,
+            })?;
             let config = dir.load_config()?;
             let mut runs = vec![dir.root().to_path_buf()];
             runs.extend(fmsr::policy_file::matching_policies(&args.pretrained, &config));
@@ -396,46 +426,80 @@ fn eval(args: &EvalArgs) -> Result<()> {
     }
     config.validate()?;
     let engine = args.engine.map_or(config.engine, Engine::from);
+    let set = EpisodeSet::from(args.set);
     let dt = fmsr::experiment::MODEL_TIMESTEP * config.env.substeps as f64;
     let summary = match engine {
         Engine::Rapier => {
             let env = config.env_config().init().context("building the rapier Shadow Hand")?;
-            fmsr::evaluate::evaluate_source_on(&config, env, engine, &source, dt)?
+            fmsr::evaluate::evaluate_source_on(&config, env, engine, set, &source, dt)?
         }
         #[cfg(feature = "mujoco")]
         Engine::Mujoco => {
             let env = config.env_config().init_mujoco(Default::default()).context("building the MuJoCo Shadow Hand")?;
-            fmsr::evaluate::evaluate_source_on(&config, env, engine, &source, dt)?
+            fmsr::evaluate::evaluate_source_on(&config, env, engine, set, &source, dt)?
         }
         #[cfg(not(feature = "mujoco"))]
         Engine::Mujoco => return Err(fmsr::experiment::ExperimentError::EngineUnavailable.into()),
     };
     println!("{}", summary.to_markdown());
     let out = match &source {
-        Source::Run(dir) => Some(args.out.clone().unwrap_or_else(|| dir.eval_json_on(engine, config.engine))),
+        Source::Run(dir) => Some(args.out.clone().unwrap_or_else(|| dir.eval_json_for(engine, config.engine, set))),
         Source::Policy { .. } => args.out.clone(),
     };
     if let Some(out) = out {
         fmsr::evaluate::write_eval(&summary, &out)?;
         println!("evaluation written to {}", out.display());
     }
-    if let Source::Policy { file, path } = &source {
-        match file.eval_on(engine) {
-            Some(recorded) if recorded.same_results(&summary) => println!(
-                "{}: the same results as the evaluation the file carries (every episode's outcome and final angle)",
-                path.display()
-            ),
-            Some(recorded) => println!(
-                "{}: differs from the evaluation the file carries ({:.0}% now, {:.0}% recorded over {} episodes)",
+    match &source {
+        Source::Policy { file, path } if args.record => {
+            let mut file = file.as_ref().clone();
+            file.record_eval(summary);
+            file.write(path)?;
+            println!(
+                "{}: the evaluation is now the one the file carries for {} ({})",
                 path.display(),
-                100.0 * summary.success_rate,
-                100.0 * recorded.success_rate,
-                recorded.episodes
-            ),
-            None => println!("{}: the file carries no evaluation on {} to compare with", path.display(), engine.key()),
+                engine.key(),
+                set.key()
+            );
         }
+        Source::Policy { file, path } => compare_with_carried(file, path, &summary),
+        Source::Run(_) if args.record => {
+            bail!("--record writes into a policy file; a run's evaluation is written to its directory")
+        }
+        Source::Run(_) => {}
     }
     Ok(())
+}
+
+/// Says whether a policy file's new evaluation repeats the one it carries.
+fn compare_with_carried(file: &PolicyFile, path: &std::path::Path, summary: &fmsr::evaluate::EvalReport) {
+    let engine = summary.engine.as_str();
+    match file.eval_for(engine, summary.set) {
+        Some(recorded) if recorded.same_results(summary) => println!(
+            "{}: the same results as the evaluation the file carries (every episode's outcome and final angle)",
+            path.display()
+        ),
+        Some(recorded) if recorded.success_rule != summary.success_rule => println!(
+            "{}: the file carries an evaluation under the old definition of success ({}: {}); this one counts a drop as a failure \
+             (`fmsr eval {} --record` writes it into the file)",
+            path.display(),
+            recorded.success_cell(),
+            recorded.success_rule.describe(),
+            path.display()
+        ),
+        Some(recorded) => println!(
+            "{}: differs from the evaluation the file carries ({} now, {} recorded over {} episodes)",
+            path.display(),
+            summary.success_cell(),
+            recorded.success_cell(),
+            recorded.episodes
+        ),
+        None => println!(
+            "{}: the file carries no {} evaluation on {engine} to compare with",
+            path.display(),
+            summary.set.key()
+        ),
+    }
 }
 
 fn export(args: &ExportArgs) -> Result<()> {

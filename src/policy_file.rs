@@ -28,7 +28,7 @@ use fmsr_core::prelude::*;
 use fmsr_core::trainer::{read_checkpoint_contents, write_atomic};
 
 use crate::evaluate::EvalReport;
-use crate::experiment::{Engine, ExperimentConfig, ExperimentError};
+use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError};
 use crate::provenance::Provenance;
 use crate::render::RenderTarget;
 use crate::run::RunDir;
@@ -92,12 +92,21 @@ impl PolicyFile {
         let config = dir.load_config()?;
         let contents = read_checkpoint_contents(&dir.checkpoint())?;
         let policy = fmsr_nn::policy_from_learner_state(&contents.algorithm)?;
-        let mut metrics = dir.load_metrics()?;
-        metrics.truncate(contents.epoch);
+        // The checkpoint's own history: metrics.jsonl may lag it by an epoch
+        // while the run trains.
+        let metrics = if contents.history.len() == contents.epoch {
+            contents.history
+        } else {
+            let mut metrics = dir.load_metrics()?;
+            metrics.truncate(contents.epoch);
+            metrics
+        };
         let mut evals = Vec::new();
-        for engine in [config.engine, other_engine(config.engine)] {
-            if let Some(e) = crate::report::read_eval(&dir.eval_json_on(engine, config.engine))? {
-                evals.push(e);
+        for set in [EpisodeSet::Test, EpisodeSet::Validation] {
+            for engine in [config.engine, other_engine(config.engine)] {
+                if let Some(e) = crate::report::read_eval(&dir.eval_json_for(engine, config.engine, set))? {
+                    evals.push(e);
+                }
             }
         }
         Ok(Self {
@@ -111,10 +120,26 @@ impl PolicyFile {
         })
     }
 
-    /// The evaluation on `engine` the file carries, if any.
+    /// The test-set evaluation on `engine` the file carries, if any.
     #[must_use]
     pub fn eval_on(&self, engine: Engine) -> Option<&EvalReport> {
-        self.evals.iter().find(|e| e.engine == engine.key())
+        self.eval_for(engine.key(), EpisodeSet::Test)
+    }
+
+    /// The evaluation on the engine named `engine` and the episodes of `set`
+    /// the file carries, if any.
+    #[must_use]
+    pub fn eval_for(&self, engine: &str, set: EpisodeSet) -> Option<&EvalReport> {
+        self.evals.iter().find(|e| e.engine == engine && e.set == set)
+    }
+
+    /// Carries `eval` from now on, in place of the evaluation of the same
+    /// engine and episode set (test sets first, the training engine first).
+    pub fn record_eval(&mut self, eval: EvalReport) {
+        self.evals.retain(|e| !(e.engine == eval.engine && e.set == eval.set));
+        self.evals.push(eval);
+        let own = self.config.engine.key();
+        self.evals.sort_by_key(|e| (e.set != EpisodeSet::Test, e.engine != own));
     }
 
     /// The file's bytes.

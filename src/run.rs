@@ -11,6 +11,8 @@
 //! runs/<name>/events.out.tfevents.*  the same for TensorBoard (one file per process)
 //! runs/<name>/eval.json        written by `fmsr eval`
 //! runs/<name>/eval-<engine>.json  `fmsr eval --engine` on the other engine
+//! runs/<name>/eval[-<engine>]-validation.json  `fmsr eval --set validation`
+//! runs/<name>/.lock            held by the one `fmsr train` writing the run
 //! ```
 
 use std::fmt::Write as _;
@@ -19,9 +21,15 @@ use std::path::{Path, PathBuf};
 use fmsr_core::prelude::*;
 use fmsr_core::trainer::write_atomic;
 
-use crate::experiment::{Engine, ExperimentConfig, ExperimentError};
+use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError};
 use crate::provenance::Provenance;
 use crate::tensorboard::EventWriter;
+
+/// The writer lock of a run directory ([`RunDir::lock`]), released on drop.
+#[derive(Debug)]
+pub struct RunLock {
+    _file: std::fs::File,
+}
 
 /// The files of one run.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -93,10 +101,72 @@ impl RunDir {
         if engine == trained_on { self.eval_json() } else { self.root.join(format!("eval-{}.json", engine.key())) }
     }
 
+    /// Where an evaluation on the episodes of `set` goes: the test set's at
+    /// [`RunDir::eval_json_on`], the validation episodes' beside it with
+    /// `-validation` (`eval-validation.json`, `eval-mujoco-validation.json`).
+    #[must_use]
+    pub fn eval_json_for(&self, engine: Engine, trained_on: Engine, set: EpisodeSet) -> PathBuf {
+        let test = self.eval_json_on(engine, trained_on);
+        match set {
+            EpisodeSet::Test => test,
+            EpisodeSet::Validation => test.with_file_name(format!(
+                "{}-validation.json",
+                test.file_stem().and_then(|s| s.to_str()).unwrap_or("eval")
+            )),
+        }
+    }
+
     /// `eval.json`.
     #[must_use]
     pub fn eval_json(&self) -> PathBuf {
         self.root.join("eval.json")
+    }
+
+    /// `.lock`: the file `fmsr train` holds an exclusive lock on.
+    #[must_use]
+    pub fn lock_file(&self) -> PathBuf {
+        self.root.join(".lock")
+    }
+
+    /// Takes the run's writer lock, creating the directory: an exclusive OS
+    /// lock on [`RunDir::lock_file`], held until the [`RunLock`] is dropped or
+    /// the process ends (a crash or `kill -9` releases it too), with this
+    /// process's id, host and start time written into the file for whoever
+    /// finds it held. Readers (`eval`, `export`, `render`) take no lock: every
+    /// file they read is replaced atomically.
+    ///
+    /// # Errors
+    /// [`ExperimentError::RunLocked`] naming the holder when another process
+    /// holds it; [`ExperimentError::Io`] when the file cannot be made.
+    pub fn lock(&self) -> Result<RunLock, ExperimentError> {
+        use std::io::{Seek, Write};
+        let io = |path: &Path| {
+            let path = path.to_path_buf();
+            move |source| ExperimentError::Io { path: path.clone(), source }
+        };
+        std::fs::create_dir_all(&self.root).map_err(io(&self.root))?;
+        let path = self.lock_file();
+        let mut file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(&path)
+            .map_err(io(&path))?;
+        match file.try_lock() {
+            Ok(()) => {}
+            Err(std::fs::TryLockError::WouldBlock) => {
+                let holder = std::fs::read_to_string(&path).unwrap_or_default().trim().to_owned();
+                let holder = if holder.is_empty() { "a process that has not named itself yet".into() } else { holder };
+                return Err(ExperimentError::RunLocked { dir: self.root.clone(), holder });
+            }
+            Err(std::fs::TryLockError::Error(source)) => return Err(ExperimentError::Io { path, source }),
+        }
+        let host = std::fs::read_to_string("/proc/sys/kernel/hostname").unwrap_or_default();
+        let since = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs());
+        let me = format!("pid {} on {} since {since} (Unix time)", std::process::id(), host.trim());
+        file.set_len(0).and_then(|()| file.rewind()).and_then(|()| file.write_all(me.as_bytes())).map_err(io(&path))?;
+        Ok(RunLock { _file: file })
     }
 
     /// Reads the run's configuration.
@@ -201,7 +271,13 @@ pub fn train_worker<E: Env + Send>(
     mut on_epoch: impl FnMut(&EpochStats),
 ) -> Result<Trainer<E, fmsr_nn::AnyLearner>, ExperimentError> {
     let writes = comm.rank() == 0;
+    // Built first: a config that only the env or the learner can check fails
+    // before the run directory exists.
     let mut trainer = config.build_worker_trainer(envs, comm)?;
+    // One writer per run directory: rank 0 (the process that writes its
+    // shared files) holds the lock for the whole run, from before it reads
+    // the checkpoint.
+    let _lock = if writes { Some(dir.lock()?) } else { None };
     if resume {
         trainer.load_checkpoint(&dir.checkpoint())?;
     } else if dir.checkpoint().exists() {

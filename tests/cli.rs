@@ -13,31 +13,7 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-const FMSR: &str = env!("CARGO_BIN_EXE_fmsr");
-
-/// The tiny config (`common::tiny_config_text`) with `extra` appended, written into `dir`.
-fn tiny_config(dir: &Path, extra: &str) -> PathBuf {
-    let path = dir.join("tiny.toml");
-    std::fs::write(&path, format!("{}\n{extra}", common::tiny_config_text())).unwrap();
-    path
-}
-
-/// A run of the tiny config trained for one epoch in `dir/run`.
-fn trained_tiny_run(dir: &Path) -> PathBuf {
-    let config = tiny_config(dir, "");
-    let run = dir.join("run");
-    let out = fmsr(&["train", "--config", config.to_str().unwrap(), "--out", run.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", text(&out));
-    run
-}
-
-fn fmsr(args: &[&str]) -> std::process::Output {
-    Command::new(FMSR).args(args).env("RUST_BACKTRACE", "0").output().unwrap()
-}
-
-fn text(out: &std::process::Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
-}
+use common::cli::{FMSR, fmsr, text, tiny_config, trained_tiny_run};
 
 #[test]
 fn train_eval_report_and_resume() {
@@ -115,15 +91,15 @@ fn train_eval_report_and_resume() {
     assert_eq!(eval["episodes"], 2);
     assert_eq!(eval["trace"]["q_msv"].as_array().unwrap().len(), 100);
     // The chance level of the test set travels with the evaluation (issue 11, item 5).
-    assert_eq!(eval["initial_distances"].as_array().unwrap().len(), 2);
-    assert!(text(&out).contains("for a policy that never turns the object"), "{}", text(&out));
+    assert_eq!(eval["records"].as_array().unwrap().len(), 2);
+    assert!(text(&out).contains("for a policy that holds the object still"), "{}", text(&out));
 
     let report = tmp.path().join("report");
     let out = fmsr(&["report", run_s, "--out", report.to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out));
     let summary = std::fs::read_to_string(report.join("summary.md")).unwrap();
     assert!(summary.contains("Table I") && summary.contains("Dense+FMSR+IS"), "{summary}");
-    assert!(summary.contains("## Against chance") && summary.contains("| Never turning |"), "{summary}");
+    assert!(summary.contains("## Against chance") && summary.contains("| Holding still |"), "{summary}");
     for f in ["fig3_block.png", "fig4_block.png", "render/00-tiny.png"] {
         let png = std::fs::read(report.join(f)).unwrap();
         assert_eq!(&png[..4], b"\x89PNG", "{f} is not a PNG");

@@ -213,6 +213,31 @@ impl ReplayBuffer {
         self.capacity
     }
 
+    /// The bytes the stored episodes take once the buffer is full (it grows to
+    /// this as episodes arrive): per episode `T + 1` global and local
+    /// observations and achieved goals, one desired goal, `T` actions and
+    /// feature vectors, as `f32`.
+    ///
+    /// ```
+    /// use fmsr_core::replay::ReplayBuffer;
+    /// use fmsr_core::spec::{AgentSpec, EnvSpec};
+    /// let spec = EnvSpec {
+    ///     obs_dim: 4, goal_dim: 2, action_dim: 1, episode_len: 10,
+    ///     agents: vec![AgentSpec { name: "a".into(), action_slots: vec![0], local_obs_dim: 3 }],
+    ///     features: vec![], reward_range: (-1.0, 0.0),
+    /// };
+    /// let buffer = ReplayBuffer::new(&spec, 100).unwrap();
+    /// // 10 episodes of 11 x (4 + 3 + 2) + 2 + 10 x 1 floats.
+    /// assert_eq!(buffer.bytes_at_capacity(), 10 * (11 * 9 + 2 + 10) * 4);
+    /// ```
+    #[must_use]
+    pub fn bytes_at_capacity(&self) -> u64 {
+        let t = self.horizon;
+        let per_step = self.obs_dim + self.local_dims.iter().sum::<usize>() + self.goal_dim;
+        let floats = (t + 1) * per_step + self.goal_dim + t * (self.action_dim + self.num_features);
+        self.capacity as u64 * floats as u64 * std::mem::size_of::<f32>() as u64
+    }
+
     /// Stores one episode, overwriting the oldest when full.
     pub fn store(&mut self, episode: &Episode) -> Result<(), CoreError> {
         self.check_shape(episode)?;

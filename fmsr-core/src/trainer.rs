@@ -749,6 +749,10 @@ pub struct CheckpointContents {
     pub env_steps: u64,
     /// The algorithm's state ([`Algorithm::save_state`] without storage).
     pub algorithm: Vec<u8>,
+    /// The per-epoch statistics up to the checkpoint, as the trainer kept
+    /// them: `metrics.jsonl` is written after the checkpoint, so a reader of a
+    /// run that trains can find it one epoch behind; this never is.
+    pub history: Vec<EpochStats>,
 }
 
 /// Reads worker 0's checkpoint file written by [`Trainer::save_checkpoint`]
@@ -761,6 +765,8 @@ pub fn read_checkpoint_contents(path: &Path) -> Result<CheckpointContents, CoreE
     #[derive(Deserialize)]
     struct Progress {
         epoch: usize,
+        #[serde(default)]
+        history: Vec<EpochStats>,
     }
     #[derive(Deserialize)]
     struct Meta {
@@ -771,7 +777,12 @@ pub fn read_checkpoint_contents(path: &Path) -> Result<CheckpointContents, CoreE
     let bytes = std::fs::read(path).map_err(|source| CoreError::Io { path: path.into(), source })?;
     let file: CheckpointFile = persist::decode(MAGIC, VERSION, &bytes).map_err(|e| corrupt(e.to_string()))?;
     let meta: Meta = serde_json::from_str(&file.meta).map_err(|e| corrupt(e.to_string()))?;
-    Ok(CheckpointContents { epoch: meta.state.epoch, env_steps: meta.env_steps, algorithm: file.algorithm })
+    Ok(CheckpointContents {
+        epoch: meta.state.epoch,
+        env_steps: meta.env_steps,
+        algorithm: file.algorithm,
+        history: meta.state.history,
+    })
 }
 
 /// What one worker contributes to a checkpoint: its checkpoint file and its

@@ -273,6 +273,7 @@ impl Learner {
         let pools = worker_pools(net.threads.min(groups.len()))?;
         let replay = ReplayBuffer::new(&spec, replay_config.buffer_size)
             .map_err(|e| NnError::InvalidConfig { key: "replay.buffer_size", reason: e.to_string() })?;
+        check_replay_fits(&replay, replay_config.buffer_size, physical_memory_bytes())?;
         // Networks start identical on every worker; exploration and sampling
         // draw from a stream of the worker's own.
         let mut rng = ChaCha8Rng::seed_from_u64(net.seed);
@@ -775,4 +776,38 @@ impl Learner {
 /// A row-major `rows x cols` matrix as a tensor on `device`.
 pub(crate) fn matrix(values: Vec<f32>, rows: usize, cols: usize, device: &Device) -> Tensor<2> {
     Tensor::<2>::from_data(TensorData::new(values, [rows, cols]), device)
+}
+
+/// The machine's physical memory (`MemTotal` of `/proc/meminfo`); `None`
+/// where it cannot be read (not Linux).
+#[must_use]
+pub fn physical_memory_bytes() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Refuses a replay buffer that could never fit: the buffer allocates as
+/// episodes arrive, so without this a `replay.buffer_size` beyond the
+/// machine's `memory` would only fail hours into training.
+///
+/// # Errors
+/// [`NnError::InvalidConfig`] naming `replay.buffer_size`, with the bytes it
+/// would take at full size and the memory there is.
+pub fn check_replay_fits(replay: &ReplayBuffer, buffer_size: usize, memory: Option<u64>) -> Result<(), NnError> {
+    let need = replay.bytes_at_capacity();
+    match memory {
+        Some(memory) if need > memory => Err(NnError::InvalidConfig {
+            key: "replay.buffer_size",
+            reason: format!(
+                "{buffer_size} transitions would take {:.1} GB at full size ({} episodes), more than this machine's \
+                 {:.1} GB of memory: lower it",
+                need as f64 / 1e9,
+                replay.capacity_episodes(),
+                memory as f64 / 1e9
+            ),
+        }),
+        _ => Ok(()),
+    }
 }

@@ -1,9 +1,11 @@
 //! `fmsr report`: the paper's tables and figures over several runs.
 //!
-//! - Table I (success rate and stability measures) and Table II (failure types),
-//!   in Markdown, one row per task and configuration. As in the paper, a
-//!   configuration trained with several seeds is represented by its run with
-//!   the highest test success rate.
+//! - Table I (success rate with its 95 % Wilson interval, and stability
+//!   measures) and Table II (failure types), in Markdown, one row per task and
+//!   configuration. As in the paper, a configuration trained with several seeds
+//!   is represented by its best run, chosen on the validation episodes
+//!   ([`choice`]); the differences between configurations come with their
+//!   intervals.
 //! - Fig. 3: learning curves (evaluation success rate per epoch, mean and
 //!   min-max spread over seeds) per task, `fig3_<task>.png`.
 //! - Fig. 4: the stability measures over one test episode (the first of the fixed
@@ -26,8 +28,10 @@ use plotters::style::FontStyle;
 use fmsr_core::config::Method;
 use fmsr_core::trainer::{EpochStats, write_atomic};
 
+pub mod choice;
+
 use crate::evaluate::EvalReport;
-use crate::experiment::{Engine, ExperimentConfig, ExperimentError};
+use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError};
 use crate::policy_file::{PolicyFile, Source};
 use crate::run::RunDir;
 
@@ -40,8 +44,11 @@ pub struct RunRecord {
     pub config: ExperimentConfig,
     /// Its per-epoch statistics.
     pub metrics: Vec<EpochStats>,
-    /// Its evaluation, if `fmsr eval` ran.
+    /// Its evaluation on the fixed test set, if `fmsr eval` ran.
     pub eval: Option<EvalReport>,
+    /// Its evaluation on the validation episodes (`fmsr eval --set
+    /// validation`), on which a seed is chosen.
+    pub validation: Option<EvalReport>,
     /// Its evaluations on the other engine (`fmsr eval --engine`).
     pub cross_evals: Vec<EvalReport>,
     /// Test episode 0 drawn by `fmsr render` on its own engine: the GIF and its frame strip.
@@ -62,6 +69,7 @@ impl RunRecord {
         let config = run.load_config()?;
         let metrics = run.load_metrics()?;
         let eval = read_eval(&run.eval_json())?;
+        let validation = read_eval(&run.eval_json_for(config.engine, config.engine, EpisodeSet::Validation))?;
         let cross_evals: Vec<EvalReport> = [Engine::Rapier, Engine::Mujoco]
             .into_iter()
             .filter(|&e| e != config.engine)
@@ -70,7 +78,7 @@ impl RunRecord {
             .collect::<Result<_, _>>()?;
         let label = config.label();
         let target = crate::render::RenderTarget::default_for(&run, 0, config.engine);
-        Ok(Self::assemble(dir, &target, config, metrics, eval, cross_evals, label))
+        Ok(Self::assemble(dir, &target, config, metrics, [eval, validation], cross_evals, label))
     }
 
     /// Reads a run directory or a policy file ([`Source::open`]); a policy
@@ -84,11 +92,14 @@ impl RunRecord {
         match source {
             Source::Run(_) => Self::load(path),
             Source::Policy { path, file } => {
+                let own = file.config.engine.key();
                 let eval = file.eval_on(file.config.engine).cloned();
-                let cross = file.evals.iter().filter(|e| e.engine != file.config.engine.key()).cloned().collect();
+                let validation = file.eval_for(own, EpisodeSet::Validation).cloned();
+                let cross =
+                    file.evals.iter().filter(|e| e.engine != own && e.set == EpisodeSet::Test).cloned().collect();
                 let label = format!("{} (policy file)", file.config.label());
                 let PolicyFile { config, metrics, .. } = *file;
-                Ok(Self::assemble(&path, &target, config, metrics, eval, cross, label))
+                Ok(Self::assemble(&path, &target, config, metrics, [eval, validation], cross, label))
             }
         }
     }
@@ -99,13 +110,13 @@ impl RunRecord {
         target: &crate::render::RenderTarget,
         config: ExperimentConfig,
         metrics: Vec<EpochStats>,
-        mut eval: Option<EvalReport>,
+        [mut eval, mut validation]: [Option<EvalReport>; 2],
         mut cross_evals: Vec<EvalReport>,
         label: String,
     ) -> Self {
         // The configuration names the run in every table (files of older versions
         // carry only the method's label).
-        for e in eval.iter_mut().chain(cross_evals.iter_mut()) {
+        for e in eval.iter_mut().chain(validation.iter_mut()).chain(cross_evals.iter_mut()) {
             e.method.clone_from(&label);
         }
         let rendering = match (target, target.strip_path()) {
@@ -114,7 +125,7 @@ impl RunRecord {
             }
             _ => None,
         };
-        Self { dir: dir.to_path_buf(), config, metrics, eval, cross_evals, rendering, label }
+        Self { dir: dir.to_path_buf(), config, metrics, eval, validation, cross_evals, rendering, label }
     }
 
     /// The configuration's method and label ([`ExperimentConfig::label`]).
@@ -193,12 +204,12 @@ fn renderings_section(runs: &[RunRecord], out: &Path) -> Result<String, Experime
 /// Each evaluated run's test success beside the chance level of its test set.
 fn chance_section(runs: &[RunRecord]) -> String {
     let mut md = String::from(
-        "\n## Against chance\n\nA policy that never turns the object succeeds in the test episodes that start within the threshold; a result near that level has not learned to rotate.\n\n| Run | Configuration | Test success | Never turning |\n|---|---|---|---|\n",
+        "\n## Against chance\n\nA policy that holds the object still succeeds in the test episodes that start within the threshold, and one that never turns it does no better; a result near that level has not learned to rotate.\n\n| Run | Configuration | Test success | Holding still |\n|---|---|---|---|\n",
     );
     for r in runs {
         let Some(e) = &r.eval else { continue };
-        let still = e.still_success_rate().map_or_else(|| "not recorded".into(), |p| format!("{:.0}%", 100.0 * p));
-        let _ = writeln!(md, "| {} | {} | {:.0}% | {still} |", r.dir.display(), e.method, 100.0 * e.success_rate);
+        let (test, still) = choice::chance_cells(e);
+        let _ = writeln!(md, "| {} | {} | {test} | {still} |", r.dir.display(), e.method);
     }
     md
 }
@@ -399,23 +410,29 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
     let mut table1 = EvalReport::table1_header();
     let mut table2 = EvalReport::table2_header();
     let mut runs_md = String::from(
-        "| Run | Task | Configuration | Seed | Epochs | Last success (train threshold) | Test success |\n|---|---|---|---|---|---|---|\n",
+        "| Run | Task | Configuration | Seed | Epochs | Last eval success (train threshold) | Validation success | Test success |\n|---|---|---|---|---|---|---|---|\n",
     );
+    let mut chosen_md = String::new();
+    let mut differences = String::new();
     let mut missing_eval = Vec::new();
+    let mut old_rule = false;
     for (task, task_runs) in &by_task {
-        let mut best: Vec<(&RunRecord, &EvalReport)> = Vec::new();
+        let mut chosen = Vec::new();
         for configuration in configurations(task_runs) {
-            let chosen = task_runs
-                .iter()
-                .filter(|r| r.configuration() == configuration)
-                .filter_map(|r| r.eval.as_ref().map(|e| (*r, e)))
-                .max_by(|a, b| a.1.success_rate.total_cmp(&b.1.success_rate));
-            if let Some((r, e)) = chosen {
+            let candidates: Vec<&RunRecord> =
+                task_runs.iter().copied().filter(|r| r.configuration() == configuration).collect();
+            if let Some((r, e, how)) = choice::choose(&candidates) {
                 table1.push_str(&e.table1_row());
                 table2.push_str(&e.table2_row());
-                best.push((r, e));
+                old_rule |= e.success_rule == crate::evaluate::SuccessRule::Reached;
+                let _ = writeln!(chosen_md, "- {task}, {}: {} ({})", configuration.1, r.dir.display(), how.describe());
+                chosen.push((r, e, how));
             }
         }
+        if let Some(rows) = choice::differences_table(task, &chosen) {
+            differences.push_str(&rows);
+        }
+        let best: Vec<(&RunRecord, &EvalReport)> = chosen.iter().map(|(r, e, _)| (*r, *e)).collect();
         let fig3 = out.join(format!("fig3_{task}.png"));
         plot_learning_curves(task, task_runs, &fig3)?;
         files.figures.push(fig3);
@@ -426,13 +443,14 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
         }
         for r in task_runs {
             let last = r.metrics.last().map_or_else(|| "n/a".into(), |m| format!("{:.2}", m.success_rate));
-            let test = r.eval.as_ref().map_or_else(|| "not evaluated".into(), |e| format!("{:.2}", e.success_rate));
+            let test = choice::rate_cell(r.eval.as_ref(), "not evaluated");
+            let validation = choice::rate_cell(r.validation.as_ref(), "not evaluated");
             if r.eval.is_none() {
                 missing_eval.push(r.dir.display().to_string());
             }
             let _ = writeln!(
                 runs_md,
-                "| {} | {task} | {} | {} | {} | {last} | {test} |",
+                "| {} | {task} | {} | {} | {} | {last} | {validation} | {test} |",
                 r.dir.display(),
                 r.label,
                 r.config.trainer.seed,
@@ -443,8 +461,16 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
     let mut summary = String::from("# fmsr report\n\n");
     let _ = writeln!(summary, "{} run(s) over {} task(s).\n", runs.len(), by_task.len());
     summary.push_str("## Table I: task performance and manipulation stability\n\n");
-    summary.push_str("Success at the test threshold on the fixed test set; the other columns are mean ± std across the test episodes of the per-episode values (total active touch sensors over the episode; mean Q_MSV and Q_VEW of the grasp matrix; mean |dQ/dt|; mean distance of the contacts to the centre of mass). A configuration with several seeds is shown by its best run, as in the paper.\n\n");
+    summary.push_str("Success on the fixed test set: the object within the test threshold at the last step and never dropped, with its 95 % Wilson interval; the other columns are mean ± std across the test episodes of the per-episode values (total active touch sensors over the episode; mean Q_MSV and Q_VEW of the grasp matrix; mean |dQ/dt|; mean distance of the contacts to the centre of mass). A configuration with several seeds is shown by its best run on the validation episodes, as the paper shows its best.\n\n");
     summary.push_str(&table1);
+    if old_rule {
+        summary.push_str("\n\\* An evaluation written before success required the object held: drops within the threshold counted as successes. `fmsr eval` again gives today's number.\n");
+    }
+    let _ = write!(summary, "\nThe run standing for each configuration:\n\n{chosen_md}");
+    if !differences.is_empty() {
+        summary.push_str("\n### Differences in test success\n\nThe first configuration's success minus the second's, in points, with the 95 % interval of the difference (Newcombe's hybrid score interval for independent rates; the policies played the same test episodes, so it is conservative).\n\n| Task | Configuration | Against | Difference |\n|---|---|---|---|\n");
+        summary.push_str(&differences);
+    }
     summary.push_str("\n## Table II: failure types\n\n");
     summary.push_str(&table2);
     summary.push_str(&chance_section(runs));

@@ -3,6 +3,8 @@
 
 #![allow(dead_code)]
 
+pub mod cli;
+
 use fmsr::prelude::*;
 use rand::{Rng, SeedableRng};
 
