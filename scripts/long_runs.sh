@@ -15,6 +15,7 @@
 #   <run>/run/                    the `fmsr train` run directory (checkpoint, replay, logs)
 #   <run>/snapshots/epoch-K.fmsr  the policy after epoch K (counted from 0), `fmsr export`
 #   <run>/keeper.log              the driver's and training's output
+#   <run>/keeper.sh               the copy of this script the driver runs
 #   <run>/keeper.lock             held (flock) by the one driver of the run while it lives
 #
 # Each run is one driver process, started with nohup and nice -n 19, that
@@ -22,8 +23,9 @@
 # exports the snapshot, and goes on to the next; so a run resumed any number of
 # times trains exactly as an uninterrupted one, and its snapshots are taken
 # from the checkpoint of their own epoch. The driver holds the run's lock for
-# its whole life: a second driver on the same run exits at once, and `fmsr
-# train` itself refuses a run directory another process holds.
+# its whole life (its `fmsr train` children inherit it): a second driver on
+# the same run exits at once; `fmsr train` from builds after 2026-11-25 also
+# refuses a run directory another process writes.
 #
 # `record` evaluates, with the work tree's current build, each snapshot not yet
 # evaluated on the fixed test set (the config's [eval]: 100 episodes at 0.4 rad
@@ -98,7 +100,9 @@ drive() {
         continue
       fi
       mkdir -p "$dir/snapshots"
-      "$BIN" export "$dir/run" --out "$snap.tmp"
+      # The export names the epochs of the checkpoint it read: it must be this one's.
+      "$BIN" export "$dir/run" --out "$snap.tmp" | tee "$snap.log"
+      grep -q "after $target epochs" "$snap.log" || { log "snapshot of epoch $k: the checkpoint is not epoch $k's"; exit 1; }
       mv "$snap.tmp" "$snap"
       log "snapshot of epoch $k: $snap"
     fi
@@ -119,7 +123,10 @@ launch() {
     echo "$(basename "$dir"): finished ($(epochs_done "$dir") epochs)"
     return
   fi
-  setsid nohup nice -n 19 "$repo/scripts/long_runs.sh" _drive "$dir" >> "$dir/keeper.log" 2>&1 < /dev/null &
+  # The driver runs from its own copy of this script: bash reads a script as it
+  # goes, so an edit of the work tree's copy must not reach a running driver.
+  cp "$repo/scripts/long_runs.sh" "$dir/keeper.sh.tmp" && mv "$dir/keeper.sh.tmp" "$dir/keeper.sh"
+  setsid nohup nice -n 19 bash "$dir/keeper.sh" _drive "$dir" >> "$dir/keeper.log" 2>&1 < /dev/null &
   # The driver takes its lock at once; wait for it so a second call sees it.
   local i
   for i in $(seq 50); do alive "$dir" && break; sleep 0.1; done
@@ -231,7 +238,7 @@ record() {
       fi
       if [ ! -f "$out/snapshots/$k.validation.json" ]; then
         echo "$name $k: the validation episodes"
-        nice -n 5 "$fmsr" eval "$snap" --episodes-set validation --out "$out/snapshots/$k.validation.json" \
+        nice -n 5 "$fmsr" eval "$snap" --set validation --out "$out/snapshots/$k.validation.json" \
           > "$out/snapshots/$k.validation.log" 2>&1
       fi
     done
@@ -241,10 +248,10 @@ record() {
 }
 
 case "${1:-}" in
-  start) shift; start "$@" ;;
-  resume) resume ;;
-  status) status ;;
-  record) record ;;
-  _drive) drive "$2" ;;
+  start) shift; start "$@"; exit ;;
+  resume) resume; exit ;;
+  status) status; exit ;;
+  record) record; exit ;;
+  _drive) drive "$2"; exit ;;
   *) die "usage: $0 start CONFIG... | resume | status | record" ;;
 esac

@@ -1,0 +1,280 @@
+#!/usr/bin/env python3
+"""Writes the section "The paper's budget" of docs/results.md from the long runs.
+
+Called by `scripts/long_runs.sh record` after it has copied each run's small
+files into docs/results/paper_budget/<run>/ and evaluated its new snapshots.
+It reads only those copies and the keeper's home (for whether a driver is
+alive), and replaces what lies between the section's two markers in
+docs/results.md (or appends the section). It also draws the learning curves
+side by side as an SVG, docs/results/paper_budget/curves.svg.
+
+Success intervals are 95 % Wilson intervals, and differences Newcombe's hybrid
+score intervals: the formulas of fmsr_core::interval, written out again here.
+"""
+
+import argparse
+import csv
+import json
+import math
+import os
+import platform
+import subprocess
+import tempfile
+from pathlib import Path
+
+BEGIN = "<!-- paper-budget:begin (written by scripts/long_runs.sh record) -->"
+END = "<!-- paper-budget:end -->"
+Z = 1.959963984540054
+LABELS = {"egg_dense_fmsr_is": "Dense+FMSR+IS", "egg_dense": "Dense"}
+
+
+def wilson(k, n):
+    if n == 0:
+        return None
+    p = k / n
+    d = 1 + Z * Z / n
+    c = (p + Z * Z / (2 * n)) / d
+    h = Z / d * math.sqrt(p * (1 - p) / n + Z * Z / (4 * n * n))
+    return p, max(0.0, c - h), min(1.0, c + h)
+
+
+def difference(a, b):
+    d = a[0] - b[0]
+    lo = d - math.sqrt((a[0] - a[1]) ** 2 + (b[2] - b[0]) ** 2)
+    hi = d + math.sqrt((a[2] - a[0]) ** 2 + (b[0] - b[1]) ** 2)
+    return d, lo, hi
+
+
+def pct(i):
+    return "n/a" if i is None else f"{100 * i[0]:.0f}% [{100 * i[1]:.0f}, {100 * i[2]:.0f}]"
+
+
+def pts(i):
+    return f"{100 * i[0]:+.0f} pts [{100 * i[1]:+.0f}, {100 * i[2]:+.0f}]"
+
+
+def read_metrics(path):
+    if not path.exists():
+        return []
+    with path.open() as f:
+        return list(csv.DictReader(f))
+
+
+def read_eval(path):
+    if not path.exists():
+        return None
+    e = json.loads(path.read_text())
+    k = round(e["success_rate"] * e["episodes"])
+    drops = sum(1 for r in e.get("records", []) if r.get("dropped"))
+    return {"interval": wilson(k, e["episodes"]), "episodes": e["episodes"], "drops": drops, "rule": e.get("success_rule", "reached")}
+
+
+def keeper_env(path):
+    env = {}
+    if path.exists():
+        for line in path.read_text().splitlines():
+            if "=" in line:
+                k, v = line.split("=", 1)
+                env[k] = v
+    return env
+
+
+def alive(home, run):
+    lock = home / run / "keeper.lock"
+    if not lock.exists():
+        return False
+    return subprocess.run(["flock", "-n", str(lock), "true"], capture_output=True).returncode != 0
+
+
+def median(xs):
+    xs = sorted(xs)
+    if not xs:
+        return None
+    m = len(xs) // 2
+    return xs[m] if len(xs) % 2 else (xs[m - 1] + xs[m]) / 2
+
+
+def machine():
+    cpu = "unknown CPU"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    mem = ""
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemTotal:"):
+                mem = f", {int(line.split()[1]) / 1024 / 1024:.0f} GiB"
+    except OSError:
+        pass
+    return f"{os.cpu_count()} cores ({cpu}){mem}, {platform.system()}"
+
+
+def svg_curves(runs, path):
+    """Eval success per epoch (thin) and test success at the snapshots (dots)."""
+    w, h, left, bottom, top, right = 760, 360, 50, 40, 20, 170
+    total = max([r["planned"] for r in runs] + [1])
+    x = lambda e: left + (w - left - right) * e / max(total, 1)
+    y = lambda v: top + (h - top - bottom) * (1 - v)
+    colors = {"Dense+FMSR+IS": "#1f77b4", "Dense": "#e6ab02"}
+    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">',
+           f'<rect width="{w}" height="{h}" fill="white"/>']
+    for v in (0, 0.25, 0.5, 0.75, 1.0):
+        out.append(f'<line x1="{left}" x2="{w - right}" y1="{y(v):.1f}" y2="{y(v):.1f}" stroke="#ddd"/>')
+        out.append(f'<text x="{left - 6}" y="{y(v) + 4:.1f}" text-anchor="end">{v:.2f}</text>')
+    for e in range(0, total + 1, 50):
+        out.append(f'<text x="{x(e):.1f}" y="{h - bottom + 16}" text-anchor="middle">{e}</text>')
+    out.append(f'<text x="{(w - right + left) / 2}" y="{h - 6}" text-anchor="middle">epoch (20k env steps each)</text>')
+    for i, r in enumerate(runs):
+        c = colors.get(r["label"], "#555")
+        for key, dash in (("train_success_rate", "4 3"), ("success_rate", "")):
+            pts_ = " ".join(f"{x(int(m['epoch']) + 1):.1f},{y(float(m[key])):.1f}" for m in r["metrics"])
+            if pts_:
+                out.append(f'<polyline fill="none" stroke="{c}" stroke-width="1.2" stroke-dasharray="{dash}" points="{pts_}"/>')
+        for epoch, ev in r["snapshots"]:
+            if ev["test"]:
+                p, lo, hi = ev["test"]["interval"]
+                out.append(f'<line x1="{x(epoch + 1):.1f}" x2="{x(epoch + 1):.1f}" y1="{y(lo):.1f}" y2="{y(hi):.1f}" stroke="{c}"/>')
+                out.append(f'<circle cx="{x(epoch + 1):.1f}" cy="{y(p):.1f}" r="3.5" fill="{c}"/>')
+        ly = top + 14 + 48 * i
+        out.append(f'<text x="{w - right + 10}" y="{ly}" fill="{c}">{r["label"]}</text>')
+        out.append(f'<text x="{w - right + 10}" y="{ly + 14}" fill="{c}" font-size="10">solid: eval, dashed: train</text>')
+        out.append(f'<text x="{w - right + 10}" y="{ly + 28}" fill="{c}" font-size="10">dots: test, 95 % interval</text>')
+    out.append("</svg>")
+    write_atomic(path, "\n".join(out) + "\n")
+
+
+def write_atomic(path, text):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
+    with os.fdopen(fd, "w") as f:
+        f.write(text)
+    os.replace(tmp, path)
+
+
+def load_run(records, home, name):
+    d = records / name
+    env = keeper_env(d / "keeper.env")
+    metrics = read_metrics(d / "metrics.csv")
+    snaps = []
+    for p in sorted((d / "snapshots").glob("epoch-*.test.json")):
+        k = int(p.name.split(".")[0].split("-")[1])
+        snaps.append((k, {"test": read_eval(p), "validation": read_eval(d / "snapshots" / f"epoch-{k:03d}.validation.json")}))
+    return {
+        "name": name,
+        "label": LABELS.get(name, name),
+        "env": env,
+        "planned": int(env.get("EPOCHS", "400")),
+        "metrics": metrics,
+        "snapshots": snaps,
+        "alive": alive(home, name),
+    }
+
+
+def section(runs, commit, records_rel):
+    lines = [BEGIN, "## The paper's budget: the egg, Dense+FMSR+IS against Dense, 400 epochs", ""]
+    lines.append(
+        "Issue 37: both runs at the paper's config (`configs/egg_dense_fmsr_is.toml`, `configs/egg_dense.toml`: "
+        "400 epochs of 25 cycles x 8 rollouts x 100 steps = 20k env steps, 25 x 25 gradient steps of 1024 samples, "
+        "seed 0, rapier), one core each (`trainer.threads = 1`, `networks.threads = 1`, which do not change the "
+        "results), kept across sessions by `scripts/long_runs.sh` in `$HOME/.local/share/fmsr/long-runs`. "
+        "Until both reach 400 epochs this section is progress, not a result."
+    )
+    lines.append("")
+    lines.append(f"- Machine: {machine()}; written by `scripts/long_runs.sh record` at commit `{commit}`.")
+    for r in runs:
+        e = r["env"]
+        lines.append(
+            f"- `{r['name']}`: started {e.get('STARTED', '?')} with the binary of commit `{e.get('COMMIT', '?')[:10]}` "
+            f"(`{Path(e.get('BIN', '?')).name}`, kept for the whole run); config and metrics in "
+            f"[`{records_rel}/{r['name']}/`]({records_rel}/{r['name']}/)."
+        )
+    lines += ["", "```sh", "scripts/long_runs.sh start configs/egg_dense_fmsr_is.toml configs/egg_dense.toml  # once",
+              "scripts/long_runs.sh resume   # first thing every session", "scripts/long_runs.sh status",
+              "scripts/long_runs.sh record   # last thing every session: evaluate snapshots, rewrite this section", "```", ""]
+    lines.append("Env steps count the training rollouts (20k an epoch) and the epoch's 50 evaluation episodes (5k).")
+    lines.append("")
+    lines += ["| Run | Epochs | Env steps | Wall time (h, training) | Median s/epoch (last 10) | Driver at record |", "|---|---|---|---|---|---|"]
+    for r in runs:
+        m = r["metrics"]
+        hours = sum(float(x["seconds"]) for x in m) / 3600
+        med = median([float(x["seconds"]) for x in m[-10:]])
+        lines.append(
+            f"| {r['label']} | {len(m)} / {r['planned']} | {m[-1]['env_steps'] if m else 0} | {hours:.1f} | "
+            f"{'n/a' if med is None else f'{med:.0f}'} | {'alive' if r['alive'] else 'stopped'} |"
+        )
+    lines += ["", f"![learning curves]({records_rel}/curves.svg)", ""]
+    lines.append(
+        "Training success (exploring, at the training threshold 0.1 rad) and eval success (the epoch's 50 "
+        "deterministic episodes, gymnasium's flag at 0.1 rad), every 10th epoch and the last:"
+    )
+    lines.append("")
+    header = "| Epoch | Env steps |" + "".join(f" {r['label']} train | {r['label']} eval |" for r in runs)
+    lines += [header, "|" + "---|" * (2 + 2 * len(runs))]
+    longest = max((len(r["metrics"]) for r in runs), default=0)
+    rows = sorted(set(list(range(9, longest, 10)) + ([longest - 1] if longest else [])))
+    for i in rows:
+        steps = next((r["metrics"][i]["env_steps"] for r in runs if i < len(r["metrics"])), "")
+        cells = "".join(
+            f" {float(r['metrics'][i]['train_success_rate']):.2f} | {float(r['metrics'][i]['success_rate']):.2f} |"
+            if i < len(r["metrics"]) else " | |" for r in runs
+        )
+        lines.append(f"| {i + 1} | {steps} |{cells}")
+    lines += ["", "Snapshots (epoch counted from 0) on the fixed test set (100 episodes at 0.4 rad; success = turned "
+              "and held) and on 100 validation episodes (seeds disjoint from the test set's), each with its 95 % "
+              "Wilson interval; the difference is Dense+FMSR+IS minus Dense on the test set (Newcombe's interval):", ""]
+    lines += ["| Snapshot |" + "".join(f" {r['label']} test | {r['label']} validation | {r['label']} drops |" for r in runs) + " Difference (test) |",
+              "|" + "---|" * (2 + 3 * len(runs))]
+    epochs = sorted({k for r in runs for k, _ in r["snapshots"]})
+    for k in epochs:
+        cells = ""
+        tests = []
+        for r in runs:
+            ev = dict(r["snapshots"]).get(k)
+            t = ev["test"] if ev else None
+            v = ev["validation"] if ev else None
+            tests.append(t["interval"] if t else None)
+            cells += f" {pct(t['interval']) if t else 'n/a'} | {pct(v['interval']) if v else 'n/a'} | {t['drops'] if t else 'n/a'} |"
+        diff = pts(difference(tests[0], tests[1])) if len(tests) == 2 and all(tests) else "n/a"
+        lines.append(f"| {k} |{cells} {diff} |")
+    for r in runs:
+        scored = [(k, ev["validation"]["interval"][0]) for k, ev in r["snapshots"] if ev["validation"]]
+        if scored:
+            best = max(scored, key=lambda kv: (kv[1], -kv[0]))[0]
+            t = dict(r["snapshots"])[best]["test"]
+            lines.append("")
+            lines.append(f"- {r['label']}: the snapshot best on validation so far is epoch {best}, test success {pct(t['interval']) if t else 'n/a'}.")
+    lines += ["", "Not yet: the final evaluation of issue 37, item 4 (500 episodes, MuJoCo, `fmsr report`, the paper's rows), "
+              "which waits for both runs to reach 400 epochs.", END]
+    return "\n".join(lines) + "\n"
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--home", type=Path, required=True)
+    ap.add_argument("--results", type=Path, required=True)
+    ap.add_argument("--records", type=Path, required=True)
+    ap.add_argument("--commit", required=True)
+    a = ap.parse_args()
+    names = [n for n in LABELS if (a.records / n).is_dir()]
+    names += sorted(p.name for p in a.records.iterdir() if p.is_dir() and p.name not in names)
+    runs = [load_run(a.records, a.home, n) for n in names]
+    svg_curves(runs, a.records / "curves.svg")
+    rel = os.path.relpath(a.records, a.results.parent)
+    text = a.results.read_text()
+    new = section(runs, a.commit, rel)
+    if BEGIN in text and END in text:
+        head, rest = text.split(BEGIN, 1)
+        tail = rest.split(END, 1)[1].lstrip("\n")
+        text = head + new + ("\n" + tail if tail else "")
+    else:
+        text = text.rstrip("\n") + "\n\n" + new
+    write_atomic(a.results, text)
+    print(f"wrote the section into {a.results} and {a.records / 'curves.svg'}")
+
+
+if __name__ == "__main__":
+    main()
