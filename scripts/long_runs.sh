@@ -72,6 +72,11 @@ drive() {
   local dir=$1
   exec 9> "$dir/keeper.lock"
   flock -n 9 || { log "another driver holds $dir"; exit 0; }
+  # nice alone does not yield to the session's work: the driver has its own
+  # session (setsid), hence its own scheduler autogroup, which the kernel
+  # weighs equally with the foreground's whatever the processes' nice. Nice
+  # the autogroup too, so builds and tests come first.
+  echo 19 > /proc/self/autogroup 2> /dev/null || true
   # shellcheck disable=SC1091
   source "$dir/keeper.env"
   export RAYON_NUM_THREADS=1
