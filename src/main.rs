@@ -297,7 +297,7 @@ fn resolve_config(args: &TrainArgs) -> Result<(ExperimentConfig, RunDir, bool)> 
 /// in a log (stderr not a terminal), nothing with `--quiet` or on other MPI ranks.
 enum Progress {
     Bar(ProgressBar),
-    Lines { total: usize, start: Instant, timed: usize },
+    Lines { total: usize, episodes: (usize, usize), start: Instant, timed: usize },
     Quiet,
 }
 
@@ -307,7 +307,9 @@ impl Progress {
             return Self::Quiet;
         }
         if !std::io::stderr().is_terminal() {
-            return Self::Lines { total: config.trainer.epochs, start: Instant::now(), timed: 0 };
+            let t = &config.trainer;
+            let episodes = (t.cycles * t.episodes_per_cycle, t.eval_episodes);
+            return Self::Lines { total: t.epochs, episodes, start: Instant::now(), timed: 0 };
         }
         let bar = ProgressBar::new(config.trainer.epochs as u64);
         bar.set_style(
@@ -329,9 +331,9 @@ impl Progress {
                 ));
                 bar.inc(1);
             }
-            Self::Lines { total, start, timed } => {
+            Self::Lines { total, episodes, start, timed } => {
                 *timed += 1;
-                eprintln!("{}", run::epoch_line(s, *total, start.elapsed().as_secs_f64(), *timed));
+                eprintln!("{}", run::epoch_line(s, *episodes, *total, start.elapsed().as_secs_f64(), *timed));
             }
             Self::Quiet => {}
         }

@@ -327,25 +327,42 @@ pub fn launched_with_several_ranks() -> bool {
 /// One line of progress per epoch, for logs (`fmsr train` writes it to stderr
 /// when stderr is not a terminal): the epoch of `total`, env steps, training
 /// success (at the training threshold, exploring) and evaluation success (the
-/// epoch's deterministic episodes), env steps/s, updates/s, the epoch's
-/// seconds and the time left at the mean pace of `seconds_so_far` over
+/// epoch's deterministic episodes), each with its 95 % Wilson interval over
+/// the epoch's `episodes` (training, evaluation), env steps/s, updates/s, the
+/// epoch's seconds and the time left at the mean pace of `seconds_so_far` over
 /// `epochs_timed` epochs of this process (here 5 epochs left at 104 s each).
 ///
 /// ```
 /// # use fmsr::core::trainer::EpochStats;
 /// let s = EpochStats { epoch: 2, env_steps: 33_000, train_success_rate: 0.05, success_rate: 0.1,
 ///     env_steps_per_sec: 254.0, updates_per_sec: 21.3, seconds: 104.0, ..Default::default() };
-/// assert_eq!(fmsr::run::epoch_line(&s, 8, 312.0, 3),
-///     "epoch 3/8 | 33000 env steps | train 0.05 | eval 0.10 | 254 env steps/s | 21.3 updates/s | 104 s | ETA 8 min 40 s");
+/// assert_eq!(fmsr::run::epoch_line(&s, (100, 10), 8, 312.0, 3),
+///     "epoch 3/8 | 33000 env steps | train 0.05 [0.02, 0.11] | eval 0.10 [0.02, 0.40] | 254 env steps/s | 21.3 updates/s | 104 s | ETA 8 min 40 s");
 /// ```
 #[must_use]
-pub fn epoch_line(s: &EpochStats, total: usize, seconds_so_far: f64, epochs_timed: usize) -> String {
+pub fn epoch_line(
+    s: &EpochStats,
+    episodes: (usize, usize),
+    total: usize,
+    seconds_so_far: f64,
+    epochs_timed: usize,
+) -> String {
     let done = s.epoch + 1;
     let left = total.saturating_sub(done) as f64 * seconds_so_far / epochs_timed.max(1) as f64;
     let left = left.round() as u64;
     let eta = if left >= 60 { format!("{} min {} s", left / 60, left % 60) } else { format!("{left} s") };
+    let rate = |p: f64, n: usize| {
+        let k = (p * n as f64).round() as usize;
+        fmsr_core::interval::Interval::wilson(k, n)
+            .map_or_else(|| format!("{p:.2}"), |i| format!("{p:.2} [{:.2}, {:.2}]", i.lower, i.upper))
+    };
     format!(
-        "epoch {done}/{total} | {} env steps | train {:.2} | eval {:.2} | {:.0} env steps/s | {:.1} updates/s | {:.0} s | ETA {eta}",
-        s.env_steps, s.train_success_rate, s.success_rate, s.env_steps_per_sec, s.updates_per_sec, s.seconds
+        "epoch {done}/{total} | {} env steps | train {} | eval {} | {:.0} env steps/s | {:.1} updates/s | {:.0} s | ETA {eta}",
+        s.env_steps,
+        rate(s.train_success_rate, episodes.0),
+        rate(s.success_rate, episodes.1),
+        s.env_steps_per_sec,
+        s.updates_per_sec,
+        s.seconds
     )
 }
