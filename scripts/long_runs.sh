@@ -224,8 +224,9 @@ status() {
 record() {
   [ -d "$home" ] || die "no long-run home at $home"
   cd "$repo"
-  cargo build --release --bin fmsr
-  local fmsr=$repo/target/release/fmsr dir name out snap k
+  # Built only when a snapshot waits for its evaluation.
+  local fmsr=$repo/target/release/fmsr built=0 dir name out snap k
+  build_once() { [ "$built" = 1 ] || { cargo build --release --bin fmsr >&2; built=1; }; }
   for dir in $(runs); do
     name=$(basename "$dir")
     out=$repo/docs/results/paper_budget/$name
@@ -237,6 +238,7 @@ record() {
     for snap in "$dir"/snapshots/epoch-*.fmsr; do
       [ -f "$snap" ] || continue
       k=$(basename "$snap" .fmsr)
+      if [ ! -f "$out/snapshots/$k.test.json" ] || [ ! -f "$out/snapshots/$k.validation.json" ]; then build_once; fi
       if [ ! -f "$out/snapshots/$k.test.json" ]; then
         echo "$name $k: the test set"
         nice -n 5 "$fmsr" eval "$snap" --out "$out/snapshots/$k.test.json" > "$out/snapshots/$k.test.log" 2>&1
