@@ -31,7 +31,8 @@
 # evaluated on the fixed test set (the config's [eval]: 100 episodes at 0.4 rad
 # in the paper's configs) and on the validation episodes (seeds disjoint from
 # the test set's, used to choose a snapshot), copies config, provenance,
-# metrics.csv and those evaluations into docs/results/paper_budget/<run>/, and
+# metrics.csv and those evaluations (trimmed of per-step traces) into
+# docs/results/paper_budget/<run>/, and
 # regenerates the section "The paper's budget" of docs/results.md
 # (scripts/long_runs_record.py). Checkpoints, replay and policies stay in the
 # home until a run ends.

@@ -69,6 +69,18 @@ def read_eval(path):
     return {"interval": wilson(k, e["episodes"]), "episodes": e["episodes"], "drops": drops, "rule": e.get("success_rule", "reached")}
 
 
+def trim(path):
+    """Keeps a snapshot's evaluation small in the tree: every field but the
+    per-episode grasp summaries and the first episode's per-step trace (the
+    .log beside it has Table I's row), as compact JSON. ~110 KB to ~15 KB."""
+    e = json.loads(path.read_text())
+    if "episode_summaries" not in e and "trace" not in e:
+        return
+    e.pop("episode_summaries", None)
+    e.pop("trace", None)
+    write_atomic(path, json.dumps(e, separators=(",", ":")) + "\n")
+
+
 def keeper_env(path):
     env = {}
     if path.exists():
@@ -152,6 +164,7 @@ def write_atomic(path, text):
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
     with os.fdopen(fd, "w") as f:
         f.write(text)
+    os.chmod(tmp, 0o644)
     os.replace(tmp, path)
 
 
@@ -160,6 +173,8 @@ def load_run(records, home, name):
     env = keeper_env(d / "keeper.env")
     metrics = read_metrics(d / "metrics.csv")
     snaps = []
+    for p in sorted((d / "snapshots").glob("epoch-*.json")):
+        trim(p)
     for p in sorted((d / "snapshots").glob("epoch-*.test.json")):
         k = int(p.name.split(".")[0].split("-")[1])
         snaps.append((k, {"test": read_eval(p), "validation": read_eval(d / "snapshots" / f"epoch-{k:03d}.validation.json")}))

@@ -138,12 +138,9 @@ pub struct EvalReport {
     /// Every episode: seed, errors, drop, outcome, contacts (absent in older files).
     #[serde(default)]
     pub records: Vec<EpisodeRecord>,
-    /// Final goal distance of each episode (rad): files of older versions
-    /// only, whose episodes have no [`EpisodeRecord`].
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub final_distances: Vec<f32>,
     /// Goal distance of each episode after the reset (rad): files of older
-    /// versions only.
+    /// versions only, whose episodes have no [`EpisodeRecord`] (their
+    /// `final_distances` are not read).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub initial_distances: Vec<f32>,
     /// The per-step series of the first test episode.
@@ -234,8 +231,7 @@ impl EvalReport {
     /// The success rate with its 95 % Wilson interval.
     #[must_use]
     pub fn success_interval(&self) -> Option<Interval> {
-        let successes = (self.success_rate * self.episodes as f64).round() as usize;
-        Interval::wilson(successes, self.episodes)
+        Interval::wilson(self.outcomes.successes, self.outcomes.episodes)
     }
 
     /// The success cell of the tables: `32% [24, 42]`, with `*` for the old
@@ -257,16 +253,6 @@ impl EvalReport {
         }
     }
 
-    /// Each episode's final rotation error (rad).
-    #[must_use]
-    pub fn final_errors(&self) -> Vec<f32> {
-        if self.records.is_empty() {
-            self.final_distances.clone()
-        } else {
-            self.records.iter().map(|r| r.final_error).collect()
-        }
-    }
-
     /// The chance level of these episodes, with its 95 % interval: the success
     /// of a policy that holds the object still without dropping it, i.e. the
     /// fraction of episodes that start within the threshold (`None` for files
@@ -277,12 +263,6 @@ impl EvalReport {
     pub fn still_success(&self) -> Option<Interval> {
         let initial = self.initial_errors();
         Interval::wilson(initial.iter().filter(|&&d| d < self.threshold).count(), initial.len())
-    }
-
-    /// The chance level's rate alone ([`EvalReport::still_success`]).
-    #[must_use]
-    pub fn still_success_rate(&self) -> Option<f64> {
-        self.still_success().map(|i| i.estimate)
     }
 
     /// Success against chance, in words, with both intervals.
@@ -501,7 +481,6 @@ pub fn evaluate_source_on<E: Env + ContactReadout + Send>(
         outcomes,
         episode_summaries: summaries,
         records,
-        final_distances: Vec::new(),
         initial_distances: Vec::new(),
         trace: first_trace.unwrap_or_default(),
         seconds: start.elapsed().as_secs_f64(),

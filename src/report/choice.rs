@@ -107,7 +107,8 @@ mod tests {
             "name": "r", "method": "Dense", "task": "egg", "engine": "rapier", "epochs": 1,
             "episodes": 100, "set": set, "threshold": 0.4, "success_rule": "reached_and_held",
             "success_rate": rate, "stability": null,
-            "outcomes": {"episodes": 100, "successes": 0, "incomplete": 0, "drop": 0},
+            "outcomes": {"episodes": 100, "successes": (rate * 100.0).round() as usize,
+                "incomplete": 100 - (rate * 100.0).round() as usize, "drop": 0},
             "failures": {"failures": 0, "incomplete": 0, "incomplete_percent": null, "drop": 0, "drop_percent": null},
             "episode_summaries": [], "trace": {"seed": 0, "contacts": [], "q_msv": [], "q_vew": [], "dq_msv": [],
             "dq_vew": [], "q_dcc": [], "goal_distance": []}, "seconds": 0.0
