@@ -1,0 +1,161 @@
+//! Guards the redesign of issue 39 (item 8): nothing changes numerically. A
+//! short run of each algorithm on the Shadow Hand (rapier, six agents,
+//! Dense+FMSR+IS with information sharing) gives bit for bit the epoch
+//! statistics and the evaluation episode recorded in `tests/data/golden.json`
+//! before any code moved.
+//!
+//! Each run covers one sharing path: MADDPG mixes the actors' parameters (the
+//! paper's), MATD3 the parameters of actors and critics, MASAC the critics'
+//! gradients. Three epochs, so the critics of one epoch drive the actors'
+//! updates of the next, and the greedy episode that follows reads every actor
+//! and its normaliser.
+//!
+//! The numbers are bit patterns of one CPU's arithmetic: burn's and faer's
+//! kernels choose their SIMD paths at run time. They are compared on a CPU
+//! with the instruction sets of the recording (the project's machine and its
+//! CI); on another one the test says so and compares nothing. To record anew
+//! (only when numbers are meant to change, and the commit says why):
+//! `FMSR_GOLDEN=record cargo test --workspace --test golden`.
+
+mod common;
+
+use fmsr::experiment::ExperimentConfig;
+use fmsr::prelude::*;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use std::path::Path;
+
+const GOLDEN: &str = "tests/data/golden.json";
+const EPOCHS: usize = 3;
+/// The seed of the greedy episode after training.
+const EPISODE_SEED: u64 = 4_242;
+
+/// What one run leaves: its epochs (without wall-clock timings) and its greedy episode.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct Trace {
+    /// The algorithm and its sharing path.
+    run: String,
+    /// Every epoch's statistics, timings zeroed.
+    history: Vec<Value>,
+    /// Steps of the greedy episode.
+    steps: usize,
+    /// CRC-32C of the little-endian bits of its joint actions.
+    actions_crc: u32,
+    /// CRC-32C of the little-endian bits of its observations (locals, global, goals).
+    observations_crc: u32,
+    /// Its first joint action, to read a difference by eye.
+    first_action: Vec<f32>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct Golden {
+    /// The instruction sets of the CPU that recorded the traces.
+    cpu: String,
+    traces: Vec<Trace>,
+}
+
+/// The target architecture and the SIMD instruction sets its kernels choose from.
+fn cpu() -> String {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let mut s = String::from("x86_64");
+        for (name, on) in [
+            ("sse4.1", std::arch::is_x86_feature_detected!("sse4.1")),
+            ("avx", std::arch::is_x86_feature_detected!("avx")),
+            ("avx2", std::arch::is_x86_feature_detected!("avx2")),
+            ("fma", std::arch::is_x86_feature_detected!("fma")),
+            ("avx512f", std::arch::is_x86_feature_detected!("avx512f")),
+        ] {
+            if on {
+                s.push(' ');
+                s.push_str(name);
+            }
+        }
+        s
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        std::env::consts::ARCH.to_string()
+    }
+}
+
+/// The tiny Shadow Hand config (tests/common) with `algorithm` and `sharing`.
+fn config(algorithm: &str, sharing: &str) -> ExperimentConfig {
+    let mut text = common::tiny_config_text();
+    let from = "[sharing]\nmode = \"parameters\"\ntarget = \"actors\"\n";
+    assert_eq!(text.matches(from).count(), 1, "the quick config's sharing changed: update this test");
+    text = text.replace(from, &format!("[sharing]\n{sharing}\n"));
+    text = format!("algorithm = \"{algorithm}\"\n{text}");
+    let mut config = ExperimentConfig::from_toml(&text, Path::new("golden.toml")).unwrap();
+    config.trainer.epochs = EPOCHS;
+    config
+}
+
+fn crc(values: impl Iterator<Item = f32>) -> u32 {
+    let bytes: Vec<u8> = values.flat_map(f32::to_le_bytes).collect();
+    crc32c::crc32c(&bytes)
+}
+
+fn trace(algorithm: &str, sharing: &str) -> Trace {
+    let config = config(algorithm, sharing);
+    let envs = (0..config.trainer.num_envs()).map(|_| config.env_config().init().unwrap()).collect();
+    let mut trainer = config.build_trainer(envs).unwrap();
+    trainer.train(|_, _| Ok(())).unwrap();
+    let history = trainer
+        .history()
+        .iter()
+        .map(|s| {
+            let s = EpochStats { env_steps_per_sec: 0.0, updates_per_sec: 0.0, seconds: 0.0, ..s.clone() };
+            serde_json::to_value(s).unwrap()
+        })
+        .collect();
+    let episode = trainer.rollout(EPISODE_SEED, ActMode::Evaluate).unwrap();
+    let observations = episode.observations.iter().flat_map(|o| {
+        let parts = o.locals.iter().chain([&o.global, &o.achieved_goal, &o.desired_goal]);
+        parts.flat_map(|a| a.iter().copied()).collect::<Vec<f32>>()
+    });
+    Trace {
+        run: format!("{algorithm}, {}", sharing.replace('\n', ", ")),
+        history,
+        steps: episode.actions.len(),
+        actions_crc: crc(episode.actions.iter().flat_map(|a| a.0.iter().copied())),
+        observations_crc: crc(observations),
+        first_action: episode.actions[0].0.clone(),
+    }
+}
+
+fn traces() -> Vec<Trace> {
+    [
+        ("maddpg", "mode = \"parameters\"\ntarget = \"actors\""),
+        ("matd3", "mode = \"parameters\"\ntarget = \"both\""),
+        ("masac", "mode = \"gradients\"\ntarget = \"critics\""),
+    ]
+    .into_iter()
+    .map(|(algorithm, sharing)| trace(algorithm, sharing))
+    .collect()
+}
+
+#[test]
+fn every_algorithm_repeats_its_recorded_run_bit_for_bit() {
+    let cpu = cpu();
+    if std::env::var("FMSR_GOLDEN").as_deref() == Ok("record") {
+        let golden = Golden { cpu, traces: traces() };
+        std::fs::write(GOLDEN, serde_json::to_string_pretty(&golden).unwrap() + "\n").unwrap();
+        eprintln!("recorded {GOLDEN}");
+        return;
+    }
+    let golden: Golden = serde_json::from_slice(&std::fs::read(GOLDEN).unwrap()).unwrap();
+    if golden.cpu != cpu {
+        eprintln!("{GOLDEN} was recorded on `{}`, this CPU is `{cpu}`: nothing compared", golden.cpu);
+        return;
+    }
+    let now = traces();
+    assert_eq!(now.len(), golden.traces.len());
+    for (now, then) in now.iter().zip(&golden.traces) {
+        assert_eq!(now.run, then.run, "the runs of the golden test changed: record anew");
+        for (epoch, (a, b)) in now.history.iter().zip(&then.history).enumerate() {
+            assert_eq!(a, b, "{}: epoch {epoch}'s statistics differ from the recording", now.run);
+        }
+        assert_eq!(now, then, "{}: the greedy episode differs from the recording", now.run);
+    }
+}
