@@ -373,7 +373,7 @@ pub fn evaluate_run_on<E: Env + ContactReadout + Send>(
 pub fn write_eval(report: &EvalReport, path: &std::path::Path) -> Result<(), ExperimentError> {
     let json = serde_json::to_vec_pretty(report)
         .map_err(|e| ExperimentError::Config { key: "eval".into(), reason: e.to_string() })?;
-    Ok(fmsr_core::trainer::write_atomic(path, &json)?)
+    Ok(fmsr_core::persist::write_atomic(path, &json)?)
 }
 
 /// One episode played for the evaluation: its record, grasp measures and trace.

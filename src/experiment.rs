@@ -196,7 +196,7 @@ impl EvalConfig {
             EpisodeSet::Test => self.seed,
             EpisodeSet::Validation => self.seed.wrapping_add(1 << 63),
         };
-        (0..n as u64).map(|i| fmsr_core::trainer::splitmix64(base.wrapping_add(i))).collect()
+        (0..n as u64).map(|i| fmsr_core::seeding::splitmix64(base.wrapping_add(i))).collect()
     }
 }
 

@@ -23,9 +23,10 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use fmsr_core::persist::write_atomic;
 use fmsr_core::persist::{self, FormatError};
 use fmsr_core::prelude::*;
-use fmsr_core::trainer::{read_checkpoint_contents, write_atomic};
+use fmsr_core::trainer::read_checkpoint_contents;
 
 use crate::evaluate::EvalReport;
 use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError};

@@ -13,8 +13,8 @@ use std::path::{Path, PathBuf};
 use plotters::prelude::*;
 
 use fmsr_core::metrics::{EpisodeOutcome, FailureType};
+use fmsr_core::persist::write_atomic;
 use fmsr_core::prelude::*;
-use fmsr_core::trainer::write_atomic;
 use fmsr_envs::shadow_hand::render::{Camera, HandScene, HandView, Image};
 use fmsr_envs::shadow_hand::{HandPhysics, ShadowHand, fetch_hand_assets};
 

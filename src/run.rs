@@ -18,8 +18,8 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use fmsr_core::persist::write_atomic;
 use fmsr_core::prelude::*;
-use fmsr_core::trainer::write_atomic;
 
 use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError};
 use crate::provenance::Provenance;

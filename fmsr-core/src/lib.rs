@@ -76,6 +76,7 @@ pub mod persist;
 pub mod policy;
 pub mod replay;
 pub mod replay_log;
+pub mod seeding;
 pub mod shadow;
 pub mod sharing;
 pub mod spec;

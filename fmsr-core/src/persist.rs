@@ -21,8 +21,13 @@
 //! assert!(matches!(decode::<Vec<f32>>(b"EXAMPLE\0", 2, &bytes), Err(FormatError::Version { found: 1, .. })));
 //! ```
 
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
 use serde::Serialize;
 use serde::de::DeserializeOwned;
+
+use crate::error::CoreError;
 
 /// Bytes before the body: magic, version and checksum.
 pub const HEADER_LEN: usize = 20;
@@ -102,6 +107,36 @@ pub fn decode<T: DeserializeOwned>(magic: &[u8; 8], version: u32, bytes: &[u8]) 
 fn magic_error(magic: &[u8; 8]) -> FormatError {
     let name: String = magic.iter().take_while(|&&b| b != 0).map(|&b| char::from(b)).collect();
     FormatError::Magic { expected: name }
+}
+
+/// Writes `bytes` to `path` atomically: a temporary file in the same folder,
+/// flushed to disk, then renamed over `path`. A crash leaves either the old or the
+/// new file, never a torn one.
+///
+/// ```
+/// let dir = tempfile::tempdir().unwrap();
+/// let path = dir.path().join("run").join("eval.json");
+/// fmsr_core::persist::write_atomic(&path, b"{}").unwrap();
+/// assert_eq!(std::fs::read(&path).unwrap(), b"{}");
+/// ```
+///
+/// # Errors
+/// [`CoreError::Io`] naming `path`.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), CoreError> {
+    let io = |source| CoreError::Io { path: path.to_path_buf(), source };
+    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(io)?;
+    let file_name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp: PathBuf = dir.join(format!(".{file_name}.tmp{}", std::process::id()));
+    let mut f = std::fs::File::create(&tmp).map_err(io)?;
+    f.write_all(bytes).map_err(io)?;
+    f.sync_all().map_err(io)?;
+    drop(f);
+    std::fs::rename(&tmp, path).map_err(io)?;
+    if let Ok(d) = std::fs::File::open(dir) {
+        let _ = d.sync_all();
+    }
+    Ok(())
 }
 
 #[cfg(test)]

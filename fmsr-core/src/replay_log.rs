@@ -176,7 +176,7 @@ mod tests {
     /// Writes the pending episodes' segment, as a checkpoint does.
     fn flush(log: &mut ReplayLog, dir: &Path, stored: u64) {
         if let Some((name, bytes)) = log.take_segment(stored).unwrap() {
-            crate::trainer::write_atomic(&dir.join(name), &bytes).unwrap();
+            crate::persist::write_atomic(&dir.join(name), &bytes).unwrap();
         }
     }
 

@@ -26,7 +26,8 @@ use plotters::prelude::*;
 use plotters::style::FontStyle;
 
 use fmsr_core::config::Method;
-use fmsr_core::trainer::{EpochStats, write_atomic};
+use fmsr_core::persist::write_atomic;
+use fmsr_core::trainer::EpochStats;
 
 pub mod choice;
 

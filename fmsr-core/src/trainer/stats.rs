@@ -1,0 +1,167 @@
+//! What an epoch reports ([`EpochStats`]) and an evaluation ([`EvalSummary`]),
+//! and the running sums they come from, summed over worker processes.
+
+use serde::{Deserialize, Serialize};
+
+use crate::agent::Communicator;
+use crate::algorithm::UpdateStats;
+use crate::collector::RewardSums;
+use crate::replay::Episode;
+use crate::spec::StepInfo;
+
+/// Statistics of one epoch.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct EpochStats {
+    /// Epoch index, from 0.
+    pub epoch: usize,
+    /// Success rate of the evaluation episodes (deterministic policy).
+    pub success_rate: f64,
+    /// Success rate of the training rollouts (with exploration).
+    pub train_success_rate: f64,
+    /// Fraction of evaluation episodes that ended with the object dropped.
+    pub drop_rate: f64,
+    /// Mean per-step value of each feature over the evaluation episodes.
+    pub eval_feature_rates: Vec<f64>,
+    /// Mean per-step value of each feature over the training rollouts.
+    pub train_feature_rates: Vec<f64>,
+    /// Mean undiscounted return of each agent (task + shadow) over the training rollouts.
+    pub returns: Vec<f64>,
+    /// The occupancy estimate `lambda_k` at the end of the epoch.
+    pub occupancy: Vec<f64>,
+    /// Mean critic loss of each agent over the epoch's updates.
+    pub critic_loss: Vec<f64>,
+    /// Mean actor loss of each agent over the epoch's updates.
+    pub actor_loss: Vec<f64>,
+    /// Each agent's mean per-step task reward magnitude `|w_i r|` over this
+    /// epoch's training episodes.
+    #[serde(default)]
+    pub task_reward_abs: Vec<f64>,
+    /// Each agent's mean per-step shadow reward magnitude `|alpha sum_k z_k|`
+    /// (what `trainer.shadow.max_scale` bounds relative to the task's).
+    #[serde(default)]
+    pub shadow_reward_abs: Vec<f64>,
+    /// Environment steps so far.
+    pub env_steps: u64,
+    /// Updates so far.
+    pub updates: u64,
+    /// Environment steps per second in this epoch (rollouts and evaluation).
+    pub env_steps_per_sec: f64,
+    /// Updates per second in this epoch.
+    pub updates_per_sec: f64,
+    /// Wall time of the epoch (s).
+    pub seconds: f64,
+}
+
+/// Result of evaluating the policy on a set of seeded episodes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct EvalSummary {
+    /// Episodes run.
+    pub episodes: usize,
+    /// Fraction that ended within the success threshold.
+    pub success_rate: f64,
+    /// Fraction that ended with the object dropped.
+    pub drop_rate: f64,
+    /// Mean per-step value of each feature.
+    pub feature_rates: Vec<f64>,
+    /// Final goal distance of each episode.
+    pub final_distances: Vec<f32>,
+}
+
+/// The running sums of one epoch.
+#[derive(Debug, Default)]
+pub(super) struct EpochTally {
+    pub(super) returns: Vec<f64>,
+    pub(super) task_abs: Vec<f64>,
+    pub(super) shadow_abs: Vec<f64>,
+    pub(super) features: Vec<f64>,
+    pub(super) successes: usize,
+    pub(super) episodes: usize,
+    pub(super) steps: usize,
+    pub(super) critic_loss: Vec<f64>,
+    pub(super) actor_loss: Vec<f64>,
+    pub(super) loss_cycles: usize,
+    pub(super) updates: u64,
+    pub(super) update_seconds: f64,
+}
+
+impl EpochTally {
+    pub(super) fn new(agents: usize, features: usize) -> Self {
+        Self {
+            returns: vec![0.0; agents],
+            task_abs: vec![0.0; agents],
+            shadow_abs: vec![0.0; agents],
+            features: vec![0.0; features],
+            critic_loss: vec![0.0; agents],
+            actor_loss: vec![0.0; agents],
+            ..Self::default()
+        }
+    }
+
+    pub(super) fn add_episode(&mut self, episode: &Episode, sums: &RewardSums) {
+        let add = |acc: &mut Vec<f64>, v: &[f64]| acc.iter_mut().zip(v).for_each(|(a, x)| *a += x);
+        add(&mut self.returns, &sums.returns);
+        add(&mut self.task_abs, &sums.task_abs);
+        add(&mut self.shadow_abs, &sums.shadow_abs);
+        accumulate_features(&episode.infos, &mut self.features);
+        self.successes += usize::from(episode.infos.last().is_some_and(|i| i.is_success));
+        self.episodes += 1;
+        self.steps += episode.infos.len();
+    }
+
+    pub(super) fn add_update(&mut self, stats: &UpdateStats, seconds: f64) {
+        self.update_seconds += seconds;
+        if stats.updates == 0 {
+            return;
+        }
+        self.updates += stats.updates;
+        self.loss_cycles += 1;
+        self.critic_loss.iter_mut().zip(&stats.critic_loss).for_each(|(a, v)| *a += v);
+        self.actor_loss.iter_mut().zip(&stats.actor_loss).for_each(|(a, v)| *a += v);
+    }
+
+    /// With several workers: the epoch's sums over all of them (losses: the
+    /// mean). Every worker evaluates the same seeds with the same networks.
+    pub(super) fn reduce(&mut self, comm: &dyn Communicator) {
+        let workers = comm.workers();
+        if workers <= 1 {
+            return;
+        }
+        let counts = [self.successes, self.episodes, self.steps].map(|c| c as f64);
+        let mut v: Vec<f32> = [
+            &self.returns[..],
+            &self.task_abs,
+            &self.shadow_abs,
+            &self.features,
+            &self.critic_loss,
+            &self.actor_loss,
+            &counts,
+        ]
+        .concat()
+        .into_iter()
+        .map(|x| x as f32)
+        .collect();
+        comm.all_reduce_mean(&mut v);
+        let w = workers as f64;
+        let mut it = v.into_iter().map(f64::from);
+        for (field, scale) in [
+            (&mut self.returns, w),
+            (&mut self.task_abs, w),
+            (&mut self.shadow_abs, w),
+            (&mut self.features, w),
+            (&mut self.critic_loss, 1.0),
+            (&mut self.actor_loss, 1.0),
+        ] {
+            field.iter_mut().zip(it.by_ref()).for_each(|(x, m)| *x = m * scale);
+        }
+        let mut count = || (it.next().unwrap_or(0.0) * w).round() as usize;
+        (self.successes, self.episodes, self.steps) = (count(), count(), count());
+    }
+}
+
+pub(super) fn accumulate_features(infos: &[StepInfo], acc: &mut [f64]) {
+    for info in infos {
+        for (a, v) in acc.iter_mut().zip(&info.features) {
+            *a += f64::from(*v);
+        }
+    }
+}
