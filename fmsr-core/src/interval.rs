@@ -75,7 +75,11 @@ impl Interval {
         let denom = 1.0 + z2 / n;
         let centre = (p + z2 / (2.0 * n)) / denom;
         let half = z / denom * (p * (1.0 - p) / n + z2 / (4.0 * n * n)).sqrt();
-        Some(Self { estimate: p, lower: (centre - half).max(0.0), upper: (centre + half).min(1.0) })
+        // At 0 and at n successes the bound on that side is exactly 0 or 1;
+        // computed, it can miss by a rounding error and exclude the estimate.
+        let lower = if successes == 0 { 0.0 } else { (centre - half).max(0.0) };
+        let upper = if successes == trials { 1.0 } else { (centre + half).min(1.0) };
+        Some(Self { estimate: p, lower, upper })
     }
 
     /// The 95 % interval of the difference `self - other` of two independent
@@ -130,6 +134,16 @@ impl Interval {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    // Regression: proptest found 10 successes in 10 trials with an upper
+    // bound of 0.9999999999999999, an interval that excluded its estimate.
+    #[test]
+    fn all_or_no_successes_reach_the_ends_exactly() {
+        for n in [1, 3, 10, 100, 4999] {
+            assert_eq!(Interval::wilson(n, n).unwrap().upper, 1.0, "{n}/{n}");
+            assert_eq!(Interval::wilson(0, n).unwrap().lower, 0.0, "0/{n}");
+        }
+    }
 
     proptest! {
         /// The interval holds its estimate and stays in [0, 1].
