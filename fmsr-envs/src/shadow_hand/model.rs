@@ -103,7 +103,8 @@ pub(crate) fn touch_sensor_sites(model: &rapier3d_mjcf::mjcf_rs::Model) -> Resul
 /// Reads `path` and replaces every `<include file="..."/>` (anywhere: top level,
 /// inside `<worldbody>` or `<asset>`) by the contents of the included file's
 /// `<mujoco>` element, recursively. `rapier3d-mjcf` 0.36 only resolves
-/// top-level includes.
+/// top-level includes. The files are parsed as XML: an `<include>` in a
+/// comment is left alone, and a file that is not XML is an error naming it.
 pub fn inline_includes(path: &Path) -> Result<String, EnvError> {
     inline_rec(path, 0)
 }
@@ -114,30 +115,44 @@ fn inline_rec(path: &Path, depth: usize) -> Result<String, EnvError> {
     }
     let text =
         fs::read_to_string(path).map_err(|source| EnvError::Io { what: "reading", path: path.into(), source })?;
+    let doc = parse_xml(&text, path)?;
     let dir = path.parent().unwrap_or_else(|| Path::new("."));
     let mut out = String::with_capacity(text.len());
-    let mut rest = text.as_str();
-    while let Some(start) = rest.find("<include") {
-        out.push_str(&rest[..start]);
-        let tail = &rest[start..];
-        let close =
-            tail.find('>').ok_or_else(|| EnvError::Model(format!("unclosed <include> in {}", path.display())))?;
-        let tag = &tail[..=close];
-        let mut after = &tail[close + 1..];
-        if !tag.ends_with("/>") {
-            let end = after
-                .find("</include>")
-                .ok_or_else(|| EnvError::Model(format!("missing </include> in {}", path.display())))?;
-            after = &after[end + "</include>".len()..];
+    let mut copied = 0;
+    for include in doc.descendants().filter(|n| n.has_tag_name("include")) {
+        let range = include.range();
+        if range.start < copied {
+            continue; // inside an <include> already replaced
         }
-        let file = attribute(tag, "file")
+        out.push_str(&text[copied..range.start]);
+        let file = include
+            .attribute("file")
             .ok_or_else(|| EnvError::Model(format!("<include> without file in {}", path.display())))?;
-        let inner = inline_rec(&dir.join(file), depth + 1)?;
-        out.push_str(mujoco_body(&inner).ok_or_else(|| EnvError::Model(format!("{file}: no <mujoco> element")))?);
-        rest = after;
+        let included = dir.join(file);
+        let inner = inline_rec(&included, depth + 1)?;
+        out.push_str(mujoco_content(&inner, &included)?);
+        copied = range.end;
     }
-    out.push_str(rest);
+    out.push_str(&text[copied..]);
     Ok(out)
+}
+
+/// `text` (the file `path`) as an XML tree, or an error naming the file.
+fn parse_xml<'a>(text: &'a str, path: &Path) -> Result<roxmltree::Document<'a>, EnvError> {
+    roxmltree::Document::parse(text).map_err(|e| EnvError::Model(format!("{} is not XML: {e}", path.display())))
+}
+
+/// The content of the root `<mujoco>` element of `text` (the file `path`), as written.
+fn mujoco_content<'a>(text: &'a str, path: &Path) -> Result<&'a str, EnvError> {
+    let doc = parse_xml(text, path)?;
+    let root = doc.root_element();
+    if !root.has_tag_name("mujoco") {
+        return Err(EnvError::Model(format!("{}: the root element is not <mujoco>", path.display())));
+    }
+    Ok(match (root.first_child(), root.last_child()) {
+        (Some(first), Some(last)) => &text[first.range().start..last.range().end],
+        _ => "",
+    })
 }
 
 /// The length range of every limited `<tendon><fixed>` of an MJCF text, by
@@ -177,22 +192,6 @@ pub fn fixed_tendon_ranges(xml: &str) -> Result<HashMap<String, [f64; 2]>, EnvEr
     Ok(ranges)
 }
 
-/// The value of `name="..."` in one tag.
-fn attribute<'a>(tag: &'a str, name: &str) -> Option<&'a str> {
-    let key = format!("{name}=\"");
-    let start = tag.find(&key)? + key.len();
-    let len = tag[start..].find('"')?;
-    Some(&tag[start..start + len])
-}
-
-/// What lies between `<mujoco ...>` and `</mujoco>`.
-fn mujoco_body(text: &str) -> Option<&str> {
-    let open = text.find("<mujoco")?;
-    let body_start = open + text[open..].find('>')? + 1;
-    let end = text.rfind("</mujoco>")?;
-    (end >= body_start).then(|| &text[body_start..end])
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -224,6 +223,23 @@ mod tests {
             .unwrap();
         let text = inline_includes(&dir.join("main.xml")).unwrap();
         assert_eq!(text, "<mujoco><worldbody><body name=\"b\"><geom name=\"g\"/></body></worldbody></mujoco>");
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    // Guards the XML parsing of includes (issue 39, item 6): a commented-out
+    // include stays a comment, and a file that is not XML is an error naming it.
+    #[test]
+    fn includes_are_read_as_xml() {
+        let dir = std::env::temp_dir().join(format!("fmsr-inline-xml-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let main = "<mujoco><!-- <include file=\"gone.xml\"/> --><include file=\"c.xml\"/></mujoco>";
+        fs::write(dir.join("main.xml"), main).unwrap();
+        fs::write(dir.join("c.xml"), "<mujoco>\n  <geom name=\"g\"/>\n</mujoco>").unwrap();
+        let text = inline_includes(&dir.join("main.xml")).unwrap();
+        assert_eq!(text, "<mujoco><!-- <include file=\"gone.xml\"/> -->\n  <geom name=\"g\"/>\n</mujoco>");
+        fs::write(dir.join("c.xml"), "<mujoco><geom></mujoco>").unwrap();
+        let err = inline_includes(&dir.join("main.xml")).unwrap_err().to_string();
+        assert!(err.contains("c.xml") && err.contains("not XML"), "{err}");
         fs::remove_dir_all(&dir).unwrap();
     }
 }
