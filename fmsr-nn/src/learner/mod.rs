@@ -1,0 +1,364 @@
+//! What MADDPG, MATD3 and MASAC share: the agents' networks in stacked
+//! groups ([`crate::group`], [`crate::Stacking`]) that live on the device
+//! across updates; input normalisers; the HER replay buffer and its sampling;
+//! the critic and actor steps with worker averaging and information sharing;
+//! polyak targets. Save/restore is in [`crate::state`].
+//!
+//! A step of the critics or actors runs every group's forward and backward
+//! pass (on worker threads when there are several groups), averages
+//! gradients over worker processes, mixes them over the graph in gradient
+//! mode, steps each group's optimiser and mixes parameters in parameter mode.
+//! With one group (GPUs) the kernels a joint update launches do not depend on
+//! the number of agents.
+//!
+//! Rollouts act on a host copy of the actors (burn's `flex` device), made
+//! once after each update phase, so an environment step never waits for a
+//! round trip to an accelerator.
+//!
+//! By job: `replay.rs` holds the HER replay buffer, its sampling and the
+//! batches it uploads; `steps.rs` the critic and actor steps, worker averaging,
+//! information sharing and polyak targets; `probes.rs` the views into the
+//! networks that tests and tools read; this file the networks, the
+//! normalisers and acting.
+
+mod probes;
+mod replay;
+mod steps;
+
+use burn::optim::AdamConfig;
+use burn::tensor::{Device, Tensor, TensorData};
+use fmsr_core::agent::{Communicator, ObservationLayout, Sharing};
+use fmsr_core::replay::{ReplayBuffer, ReplayConfig};
+use fmsr_core::sharing::{InformationSharing, NetworkGroup};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::config::{CriticSharing, NetworkConfig, Stacking};
+use crate::error::{NnError, check_values};
+use crate::group::{Group, GroupSpec};
+use crate::normalizer::Normalizer;
+use crate::workers::{par_each, worker_pools};
+
+pub(crate) use self::replay::BatchTensors;
+pub use self::replay::{check_replay_fits, physical_memory_bytes};
+
+/// The shared machinery; see the [module docs](self).
+pub(crate) struct Learner {
+    pub(crate) layout: ObservationLayout,
+    pub(crate) net: NetworkConfig,
+    pub(crate) replay_config: ReplayConfig,
+    pub(crate) gamma: f64,
+    pub(crate) sharing: InformationSharing,
+    pub(crate) comm: Box<dyn Communicator>,
+    /// The plain device (targets, batches); its autodiff twin holds the online networks.
+    pub(crate) device: Device,
+    pub(crate) groups: Vec<Group>,
+    pub(crate) actor_norms: Vec<Normalizer>,
+    pub(crate) critic_norm: Normalizer,
+    /// Agent-major order of the joint action: `perm[k]` is the joint slot of column `k`.
+    perm: Vec<usize>,
+    pub(crate) replay: ReplayBuffer,
+    pub(crate) rng: ChaCha8Rng,
+    /// Gradient steps taken.
+    pub(crate) steps: u64,
+    pools: Vec<rayon::ThreadPool>,
+}
+
+impl std::fmt::Debug for Learner {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Learner")
+            .field("agents", &self.num_agents())
+            .field("groups", &self.groups.len())
+            .field("net", &self.net)
+            .field("replay", &self.replay.episodes())
+            .field("steps", &self.steps)
+            .finish_non_exhaustive()
+    }
+}
+
+/// What a learner is built from, besides its algorithm's own config.
+#[derive(Debug)]
+pub struct LearnerParts {
+    /// How actor inputs are laid out (and the environment's spec).
+    pub layout: ObservationLayout,
+    /// Networks and optimisers.
+    pub networks: NetworkConfig,
+    /// Replay storage and the number of gradient steps per cycle.
+    pub replay: ReplayConfig,
+    /// The discount (the trainer's `gamma`).
+    pub gamma: f64,
+    /// Information sharing (`None`: off).
+    pub sharing: Option<Sharing>,
+    /// Averaging across worker processes.
+    pub comm: Box<dyn Communicator>,
+    /// The device the networks live on (its autodiff twin takes gradients).
+    pub device: Device,
+}
+
+impl LearnerParts {
+    /// Parts on burn's `flex` CPU device, in one process.
+    #[must_use]
+    pub fn new(layout: ObservationLayout, networks: NetworkConfig, replay: ReplayConfig, gamma: f64) -> Self {
+        Self {
+            layout,
+            networks,
+            replay,
+            gamma,
+            sharing: None,
+            comm: Box::new(fmsr_core::agent::SingleProcess),
+            device: Device::flex(),
+        }
+    }
+
+    /// With information sharing.
+    #[must_use]
+    pub fn with_sharing(mut self, sharing: Option<Sharing>) -> Self {
+        self.sharing = sharing;
+        self
+    }
+
+    /// With a communicator between worker processes: gradients (as HER
+    /// baselines' MPI Adam), normaliser statistics and MASAC's temperature
+    /// gradients are averaged over the workers, so their networks stay identical.
+    #[must_use]
+    pub fn with_communicator(mut self, comm: Box<dyn Communicator>) -> Self {
+        self.comm = comm;
+        self
+    }
+
+    /// On another device (see [`crate::device`]).
+    #[must_use]
+    pub fn with_device(mut self, device: Device) -> Self {
+        self.device = device;
+        self
+    }
+}
+
+/// Checks what the networks need of the parts: a discount in `[0, 1)`, agents
+/// with positive input and action widths, a mixing matrix over all of them.
+fn check_parts(layout: &ObservationLayout, gamma: f64, sharing: Option<&Sharing>) -> Result<(), NnError> {
+    if !(0.0..1.0).contains(&gamma) {
+        return Err(NnError::InvalidConfig { key: "gamma", reason: format!("{gamma} is not in [0, 1)") });
+    }
+    let spec = layout.spec();
+    let n = spec.num_agents();
+    if n == 0 {
+        return Err(NnError::InvalidConfig { key: "agents", reason: "the layout has no agents".into() });
+    }
+    if let Some(s) = sharing
+        && s.mixing.n() != n
+    {
+        return Err(NnError::Sharing {
+            reason: format!("the mixing matrix has {} nodes but the learner has {n} agents", s.mixing.n()),
+        });
+    }
+    match spec.agents.iter().enumerate().find(|(i, a)| layout.actor_input_dim(*i) == 0 || a.action_dim() == 0) {
+        Some((i, a)) => Err(NnError::InvalidConfig {
+            key: "agents",
+            reason: format!(
+                "agent {i} ({}) has actor input dim {} and action dim {}; both must be positive",
+                a.name,
+                layout.actor_input_dim(i),
+                a.action_dim()
+            ),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// The agent ranges of the groups `net.stacking` asks for on `device`
+/// (one group when the agents share critics).
+fn group_ranges(net: &NetworkConfig, agents: usize, device: &Device) -> Vec<std::ops::Range<usize>> {
+    let per_agent = match net.stacking {
+        Stacking::PerAgent => true,
+        Stacking::All => false,
+        Stacking::Auto => *device == Device::flex() && net.critic == CriticSharing::PerAgent,
+    };
+    if per_agent { (0..agents).map(|i| i..i + 1).collect() } else { std::iter::once(0..agents).collect() }
+}
+
+impl Learner {
+    /// A learner with `critics` critics per agent and actor heads of
+    /// `head_mult * action_dim(i)` outputs.
+    pub(crate) fn new(parts: LearnerParts, critics: usize, head_mult: usize) -> Result<Self, NnError> {
+        let LearnerParts { layout, networks: net, replay: replay_config, gamma, sharing, comm, device } = parts;
+        net.validate()?;
+        replay_config.validate().map_err(|e| NnError::InvalidConfig { key: "replay", reason: e.to_string() })?;
+        replay_config.worker_batch(comm.workers()).map_err(|_| NnError::InvalidConfig {
+            key: "replay.batch_size",
+            reason: format!(
+                "{} is the total over all worker processes and must split evenly over {}",
+                replay_config.batch_size,
+                comm.workers()
+            ),
+        })?;
+        check_parts(&layout, gamma, sharing.as_ref())?;
+        let spec = layout.spec().clone();
+        let sharing = InformationSharing::new(sharing);
+        if net.critic != CriticSharing::PerAgent && sharing.shares(NetworkGroup::Critics) {
+            return Err(NnError::Sharing {
+                reason: format!(
+                    "networks.critic = {:?} already shares the critics' trunk; information sharing can mix only the actors",
+                    net.critic
+                ),
+            });
+        }
+        let device = device.inner();
+        let na = spec.num_agents();
+        let inputs: Vec<usize> = (0..na).map(|i| layout.actor_input_dim(i)).collect();
+        let actions: Vec<usize> = spec.agents.iter().map(|a| a.action_dim()).collect();
+        let group_spec = GroupSpec {
+            inputs: &inputs,
+            actions: &actions,
+            critic_input: layout.critic_input_dim(),
+            hidden: net.hidden,
+            layers: net.layers,
+            seed: net.seed,
+            critics,
+            critic_shared: net.critic.shared_layers(net.layers),
+            head_mult,
+            same_trunks: (sharing.shares(NetworkGroup::Actors), sharing.shares(NetworkGroup::Critics)),
+            adam: AdamConfig::new()
+                .with_beta_1(net.adam_beta1 as f32)
+                .with_beta_2(net.adam_beta2 as f32)
+                .with_epsilon(net.adam_epsilon as f32),
+        };
+        let groups: Vec<Group> = group_ranges(&net, na, &device)
+            .into_iter()
+            .enumerate()
+            .map(|(g, r)| Group::new(g, r, &group_spec, spec.action_dim, &device))
+            .collect();
+        let perm = spec.agents.iter().flat_map(|a| a.action_slots.iter().copied()).collect();
+        let pools = worker_pools(net.threads.min(groups.len()))?;
+        let replay = ReplayBuffer::new(&spec, replay_config.buffer_size)
+            .map_err(|e| NnError::InvalidConfig { key: "replay.buffer_size", reason: e.to_string() })?;
+        check_replay_fits(&replay, replay_config.buffer_size, physical_memory_bytes())?;
+        // Networks start identical on every worker; exploration and sampling
+        // draw from a stream of the worker's own.
+        let mut rng = ChaCha8Rng::seed_from_u64(net.seed);
+        rng.set_stream(0xF115 + comm.rank() as u64);
+        Ok(Self {
+            critic_norm: Normalizer::new(spec.obs_dim + spec.goal_dim, net.norm_eps, net.clip_obs),
+            actor_norms: inputs.iter().map(|&d| Normalizer::new(d, net.norm_eps, net.clip_obs)).collect(),
+            layout,
+            net,
+            replay_config,
+            gamma,
+            sharing,
+            comm,
+            device,
+            groups,
+            perm,
+            replay,
+            rng,
+            steps: 0,
+            pools,
+        })
+    }
+
+    /// Number of agents.
+    pub(crate) fn num_agents(&self) -> usize {
+        self.actor_norms.len()
+    }
+
+    /// Agent `i`'s action dimension.
+    pub(crate) fn action_dim(&self, i: usize) -> usize {
+        self.layout.spec().agents[i].action_dim()
+    }
+
+    /// The group of agent `agent` and the agent's index in it.
+    pub(crate) fn locate(&self, agent: usize) -> Result<(usize, usize), NnError> {
+        self.groups
+            .iter()
+            .position(|g| g.agents.contains(&agent))
+            .map(|g| (g, agent - self.groups[g].agents.start))
+            .ok_or(NnError::UnknownAgent { agent, agents: self.num_agents() })
+    }
+
+    /// `f(g, group_g)` for every group, on the worker threads.
+    pub(crate) fn per_group<T: Send>(
+        &mut self,
+        f: impl Fn(usize, &mut Group) -> Result<T, NnError> + Sync,
+    ) -> Result<Vec<T>, NnError> {
+        par_each(&self.pools, &mut self.groups, f)
+    }
+
+    /// Group `g`'s agents' normalised actor inputs, zero-padded to `[A_g, n, in_max]`, as host data.
+    fn padded_inputs(&self, g: usize, xs: &[Vec<f32>], n: usize) -> Vec<f32> {
+        let group = &self.groups[g];
+        let width = group.input_width();
+        let mut out = vec![0.0; group.len() * n * width];
+        for (k, i) in group.agents.clone().enumerate() {
+            let mut x = xs[i].clone();
+            self.actor_norms[i].normalize(&mut x);
+            let d = self.actor_norms[i].dim();
+            for (r, row) in x.chunks_exact(d).take(n).enumerate() {
+                out[(k * n + r) * width..][..d].copy_from_slice(row);
+            }
+        }
+        out
+    }
+
+    /// The actors' head outputs (pre-activation) for `n` rows of raw actor
+    /// inputs, each agent's in its own column order, computed on the host copy.
+    pub(crate) fn heads(&mut self, inputs: &[Vec<f32>], n: usize) -> Result<Vec<Vec<f32>>, NnError> {
+        let na = self.num_agents();
+        if inputs.len() != na {
+            return Err(NnError::Dimension { what: "actor inputs (agents)".into(), expected: na, found: inputs.len() });
+        }
+        for (i, x) in inputs.iter().enumerate() {
+            check_values(|| format!("actor input of agent {i}"), x, n * self.layout.actor_input_dim(i))?;
+        }
+        if n == 0 {
+            return Ok(vec![Vec::new(); na]);
+        }
+        let host = Device::flex();
+        let mut out = Vec::with_capacity(na);
+        for g in 0..self.groups.len() {
+            let x = self.padded_inputs(g, inputs, n);
+            let group = &mut self.groups[g];
+            if group.act_cache.is_none() {
+                group.act_cache = Some(group.nets.actors.copy_to(&host));
+            }
+            let actors =
+                group.act_cache.as_ref().ok_or(NnError::Backend { what: "actors", reason: "no host copy".into() })?;
+            let x = Tensor::<3>::from_data(TensorData::new(x, [group.len(), n, group.input_width()]), &host);
+            let y = actors.forward(x);
+            let w = y.dims()[2];
+            let y = y
+                .into_data()
+                .try_into_vec::<f32>()
+                .map_err(|e| NnError::Backend { what: "actions", reason: format!("{e:?}") })?;
+            for (k, cols) in group.actor_layout.head_cols.iter().enumerate() {
+                out.push(
+                    (0..n).flat_map(|r| cols.iter().map(|&c| y[(k * n + r) * w + c]).collect::<Vec<_>>()).collect(),
+                );
+            }
+        }
+        Ok(out)
+    }
+
+    /// Each group's normal noise `[A_g, n, d_max]` (zero in the padding),
+    /// drawn agent by agent, row by row from the learner's stream.
+    pub(crate) fn noise(&mut self, n: usize, sample: impl Fn(&mut ChaCha8Rng) -> f32) -> Vec<Tensor<3>> {
+        let mut out = Vec::with_capacity(self.groups.len());
+        for g in 0..self.groups.len() {
+            let (agents, dmax) = (self.groups[g].agents.clone(), self.groups[g].max_action());
+            let mut v = vec![0.0; agents.len() * n * dmax];
+            for (k, i) in agents.clone().enumerate() {
+                for r in 0..n {
+                    for c in 0..self.action_dim(i) {
+                        v[(k * n + r) * dmax + c] = sample(&mut self.rng);
+                    }
+                }
+            }
+            out.push(Tensor::from_data(TensorData::new(v, [agents.len(), n, dmax]), &self.device));
+        }
+        out
+    }
+}
+
+/// A row-major `rows x cols` matrix as a tensor on `device`.
+pub(crate) fn matrix(values: Vec<f32>, rows: usize, cols: usize, device: &Device) -> Tensor<2> {
+    Tensor::<2>::from_data(TensorData::new(values, [rows, cols]), device)
+}

@@ -1,0 +1,214 @@
+//! The learner's storage: the HER replay buffer, its sampling with every
+//! agent's reward from the [`RewardModel`], and the batches it uploads to the
+//! device.
+
+use burn::tensor::{Tensor, TensorData};
+use fmsr_core::RewardModel;
+use fmsr_core::agent::Batch;
+use fmsr_core::replay::{Episode, ReplayBuffer};
+
+use crate::error::{NnError, check_values};
+use crate::group::GroupBatch;
+
+use super::{Learner, matrix};
+
+/// A sampled batch on the device: normalised inputs, joint actions in
+/// agent-major column order, and each group's share.
+#[derive(Clone)]
+pub(crate) struct BatchTensors {
+    pub(crate) n: usize,
+    /// `[x, g]` normalised, `n x (obs + goal)`.
+    pub(crate) og: Tensor<2>,
+    /// `[x', g]` normalised.
+    pub(crate) og_next: Tensor<2>,
+    /// `a_1 .. a_N` agent-major, `n x action_dim`.
+    pub(crate) actions: Tensor<2>,
+    /// Each group's inputs, rewards and bounds.
+    pub(crate) groups: Vec<GroupBatch>,
+}
+
+impl Learner {
+    /// Stores an episode in the replay buffer.
+    pub(crate) fn store(&mut self, episode: &Episode) -> Result<(), NnError> {
+        self.replay.store(episode).map_err(|e| NnError::Replay { reason: e.to_string() })
+    }
+
+    /// The replay buffer's capacity in episodes.
+    pub(crate) fn storage_capacity(&self) -> usize {
+        self.replay.capacity_episodes()
+    }
+
+    /// [`fmsr_core::Algorithm::restore_storage`] for the replay buffer.
+    pub(crate) fn restore_storage(&mut self, total: u64, episodes: &[Episode]) -> Result<(), NnError> {
+        self.replay.restore_log(total, episodes).map_err(|e| NnError::Replay { reason: e.to_string() })
+    }
+
+    /// Samples a batch with HER, updates the normalisers with it (as HER
+    /// baselines do) and puts it on the device. `None` while the buffer is empty.
+    pub(crate) fn sample(&mut self, rewards: &dyn RewardModel) -> Result<Option<BatchTensors>, NnError> {
+        if self.replay.episodes() == 0 {
+            return Ok(None);
+        }
+        let b = self
+            .replay
+            .sample(
+                // This worker's share; `new` checked that it divides evenly.
+                self.replay_config.batch_size / self.comm.workers(),
+                &self.replay_config.her,
+                &self.layout,
+                &mut self.rng,
+                &|a, d| rewards.goal_reward(a, d),
+                &|task, phi, out| rewards.agent_rewards(task, phi, out),
+            )
+            .map_err(|e| NnError::Replay { reason: e.to_string() })?;
+        let bounds = rewards.reward_bounds();
+        if bounds.len() != self.num_agents() {
+            return Err(NnError::Dimension {
+                what: "reward bounds (agents)".into(),
+                expected: self.num_agents(),
+                found: bounds.len(),
+            });
+        }
+        let scale = 1.0 / (1.0 - self.gamma);
+        let bounds = bounds.iter().map(|&(lo, hi)| ((lo * scale) as f32, (hi * scale) as f32)).collect();
+        self.tensors(&b, bounds).map(Some)
+    }
+
+    fn check_batch(&self, b: &Batch, bounds: &[(f32, f32)]) -> Result<(), NnError> {
+        let spec = self.layout.spec();
+        let (n, na) = (b.size, self.num_agents());
+        if n == 0 {
+            return Err(NnError::Dimension { what: "batch.size (must be positive)".into(), expected: 1, found: 0 });
+        }
+        check_values(|| "batch.obs".into(), &b.obs, n * spec.obs_dim)?;
+        check_values(|| "batch.next_obs".into(), &b.next_obs, n * spec.obs_dim)?;
+        check_values(|| "batch.goals".into(), &b.goals, n * spec.goal_dim)?;
+        check_values(|| "batch.actions".into(), &b.actions, n * spec.action_dim)?;
+        for (what, v) in [("batch.actor_inputs", &b.actor_inputs), ("batch.next_actor_inputs", &b.next_actor_inputs)] {
+            if v.len() != na {
+                return Err(NnError::Dimension { what: format!("{what} (agents)"), expected: na, found: v.len() });
+            }
+            for (i, x) in v.iter().enumerate() {
+                check_values(|| format!("{what}[{i}]"), x, n * self.layout.actor_input_dim(i))?;
+            }
+        }
+        if b.rewards.len() != na {
+            return Err(NnError::Dimension {
+                what: "batch.rewards (agents)".into(),
+                expected: na,
+                found: b.rewards.len(),
+            });
+        }
+        for (i, r) in b.rewards.iter().enumerate() {
+            check_values(|| format!("batch.rewards[{i}]"), r, n)?;
+        }
+        if bounds.len() != na {
+            return Err(NnError::Dimension {
+                what: "Q-target bounds (agents)".into(),
+                expected: na,
+                found: bounds.len(),
+            });
+        }
+        if let Some((i, (lo, hi))) =
+            bounds.iter().enumerate().find(|(_, (lo, hi))| lo.is_nan() || hi.is_nan() || lo > hi)
+        {
+            return Err(NnError::InvalidConfig {
+                key: "q_bounds",
+                reason: format!("agent {i} has bounds ({lo}, {hi}); need lo <= hi"),
+            });
+        }
+        Ok(())
+    }
+
+    /// Checks and normalises a host batch and uploads it.
+    pub(crate) fn tensors(&mut self, b: &Batch, bounds: Vec<(f32, f32)>) -> Result<BatchTensors, NnError> {
+        self.check_batch(b, &bounds)?;
+        let n = b.size;
+        let spec = self.layout.spec();
+        let (od, gd) = (spec.obs_dim, spec.goal_dim);
+        let obs_goal = |obs: &[f32]| {
+            let mut out = Vec::with_capacity(n * (od + gd));
+            for r in 0..n {
+                out.extend_from_slice(&obs[r * od..(r + 1) * od]);
+                out.extend_from_slice(&b.goals[r * gd..(r + 1) * gd]);
+            }
+            out
+        };
+        let (mut og, mut og_next) = (obs_goal(&b.obs), obs_goal(&b.next_obs));
+        self.critic_norm.update(&og, self.comm.as_ref());
+        for (norm, x) in self.actor_norms.iter_mut().zip(&b.actor_inputs) {
+            norm.update(x, self.comm.as_ref());
+        }
+        self.critic_norm.normalize(&mut og);
+        self.critic_norm.normalize(&mut og_next);
+        let ad = self.perm.len();
+        let mut actions = Vec::with_capacity(n * ad);
+        for row in b.actions.chunks_exact(ad).take(n) {
+            actions.extend(self.perm.iter().map(|&s| row[s]));
+        }
+        let groups = (0..self.groups.len()).map(|g| self.group_batch(g, b, &bounds)).collect();
+        let dev = &self.device;
+        Ok(BatchTensors {
+            n,
+            og: matrix(og, n, od + gd, dev),
+            og_next: matrix(og_next, n, od + gd, dev),
+            actions: matrix(actions, n, ad, dev),
+            groups,
+        })
+    }
+
+    /// Group `g`'s share of a checked host batch.
+    fn group_batch(&self, g: usize, b: &Batch, bounds: &[(f32, f32)]) -> GroupBatch {
+        let (n, dev) = (b.size, &self.device);
+        let group = &self.groups[g];
+        let (a, width, r) = (group.len(), group.input_width(), group.agents.clone());
+        let stack = |v: Vec<f32>, cols: usize| Tensor::<3>::from_data(TensorData::new(v, [a, n, cols]), dev);
+        let per_agent = |f: fn(&(f32, f32)) -> f32| {
+            Tensor::<3>::from_data(
+                TensorData::new(bounds[r.clone()].iter().map(f).collect::<Vec<f32>>(), [a, 1, 1]),
+                dev,
+            )
+        };
+        GroupBatch {
+            x_now: stack(self.padded_inputs(g, &b.actor_inputs, n), width),
+            x_next: stack(self.padded_inputs(g, &b.next_actor_inputs, n), width),
+            rewards: stack(b.rewards[r.clone()].concat(), 1),
+            lo: per_agent(|b| b.0),
+            hi: per_agent(|b| b.1),
+        }
+    }
+}
+
+/// The machine's physical memory (`MemTotal` of `/proc/meminfo`); `None`
+/// where it cannot be read (not Linux).
+#[must_use]
+pub fn physical_memory_bytes() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Refuses a replay buffer that could never fit: the buffer allocates as
+/// episodes arrive, so without this a `replay.buffer_size` beyond the
+/// machine's `memory` would only fail hours into training.
+///
+/// # Errors
+/// [`NnError::InvalidConfig`] naming `replay.buffer_size`, with the bytes it
+/// would take at full size and the memory there is.
+pub fn check_replay_fits(replay: &ReplayBuffer, buffer_size: usize, memory: Option<u64>) -> Result<(), NnError> {
+    let need = replay.bytes_at_capacity();
+    match memory {
+        Some(memory) if need > memory => Err(NnError::InvalidConfig {
+            key: "replay.buffer_size",
+            reason: format!(
+                "{buffer_size} transitions would take {:.1} GB at full size ({} episodes), more than this machine's \
+                 {:.1} GB of memory: lower it",
+                need as f64 / 1e9,
+                replay.capacity_episodes(),
+                memory as f64 / 1e9
+            ),
+        }),
+        _ => Ok(()),
+    }
+}

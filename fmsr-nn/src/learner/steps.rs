@@ -1,0 +1,201 @@
+//! The update steps: every group's forward and backward pass, gradients
+//! averaged over worker processes and mixed over the graph (gradient mode),
+//! each group's optimiser step, parameters mixed (parameter mode); polyak targets.
+
+use burn::module::Module;
+use burn::optim::GradientsParams;
+use burn::tensor::{Device, Tensor};
+use fmsr_core::sharing::{NetworkGroup, SharedParameters};
+use fmsr_graph::MixingMatrix;
+
+use crate::error::NnError;
+use crate::group::Group;
+use crate::mixing::{all_reduce, mix_gradients, mix_stacks};
+use crate::net::Critics;
+
+use super::{BatchTensors, Learner};
+
+/// Every agent's information-sharing view: the groups' stacks of one kind.
+struct Shared<'a> {
+    groups: &'a mut [Group],
+}
+
+impl SharedParameters for Shared<'_> {
+    type Error = NnError;
+
+    fn consensus_step(&mut self, kind: NetworkGroup, mixing: &MixingMatrix) -> Result<(), NnError> {
+        let copies = self.groups.first().map_or(0, |g| g.nets.copies(kind));
+        for c in 0..copies {
+            let stacks = self.groups.iter_mut().map(|g| g.nets.stack_mut(kind, c)).collect();
+            mix_stacks(stacks, mixing)?;
+        }
+        Ok(())
+    }
+}
+
+/// Every group's gradients of one kind, as gradient-mode sharing sees them.
+struct SharedGrads<'a> {
+    grads: &'a mut [GradientsParams],
+    ids: Vec<Vec<(burn::module::ParamId, burn::module::ParamId)>>,
+    agents: usize,
+    device: Device,
+}
+
+impl SharedParameters for SharedGrads<'_> {
+    type Error = NnError;
+
+    fn consensus_step(&mut self, _: NetworkGroup, mixing: &MixingMatrix) -> Result<(), NnError> {
+        mix_gradients(self.grads, &self.ids, self.agents, mixing, &self.device)
+    }
+}
+
+impl Learner {
+    /// One optimiser step of every agent's critics towards the clipped TD target (eq. 7)
+    ///
+    /// ```text
+    /// y_i = clip(r_i + gamma * (min_c Q'_{i,c}(x', g, a') - soft_i), lo_i, hi_i)
+    /// L_i = sum_c mean (Q_{i,c}(x, g, a) - y_i)^2
+    /// ```
+    ///
+    /// for every group's agents at once, where `a'` is `next_actions`
+    /// (`[n, action_dim]`, agent-major) and `soft[g]` an optional `[A_g, n, 1]`
+    /// term (MASAC's `alpha_i log pi_i`). Returns the agents' losses.
+    pub(crate) fn critic_step(
+        &mut self,
+        b: &BatchTensors,
+        next_actions: Tensor<2>,
+        soft: Option<Vec<Tensor<3>>>,
+    ) -> Result<Vec<f32>, NnError> {
+        let next_input = Tensor::cat(vec![b.og_next.clone(), next_actions], 1).unsqueeze_dim::<3>(0);
+        let input = Tensor::from_inner(Tensor::cat(vec![b.og.clone(), b.actions.clone()], 1).unsqueeze_dim::<3>(0));
+        let gamma = self.gamma as f32;
+        self.step_groups(NetworkGroup::Critics, |g, group| {
+            let (gb, na) = (&b.groups[g], group.len());
+            let mut q_next = group.nets.critic_targets.nets.iter().map(|c| c.forward(next_input.clone()));
+            let first = q_next.next().ok_or(NnError::Backend { what: "critic target", reason: "no critic".into() })?;
+            let mut q_next = q_next.fold(first, Tensor::min_pair);
+            if let Some(soft) = &soft {
+                q_next = q_next - soft[g].clone();
+            }
+            let shape = [na, b.n, 1];
+            let y = (gb.rewards.clone() + q_next.mul_scalar(gamma))
+                .max_pair(gb.lo.clone().expand(shape))
+                .min_pair(gb.hi.clone().expand(shape));
+            let y = Tensor::from_inner(y);
+            let mut loss: Option<Tensor<3>> = None;
+            for c in &group.nets.critics.nets {
+                let l = (c.forward(input.clone()) - y.clone()).square().mean_dim(1);
+                loss = Some(match loss {
+                    Some(acc) => acc + l,
+                    None => l,
+                });
+            }
+            Ok(loss.ok_or(NnError::Backend { what: "critic loss", reason: "no critic".into() })?.reshape([na]))
+        })
+    }
+
+    /// One optimiser step of every agent's actor on the losses `[A_g]` that
+    /// `loss(g, group, critics)` returns for each group, where `critics` are
+    /// the group's online critics without parameter gradients.
+    pub(crate) fn actor_step<F>(&mut self, loss: F) -> Result<Vec<f32>, NnError>
+    where
+        F: Fn(usize, &Group, &Critics) -> Result<Tensor<1>, NnError> + Sync,
+    {
+        let losses = self.step_groups(NetworkGroup::Actors, |g, group| {
+            let critics = group.nets.critics.clone().no_grad();
+            loss(g, group, &critics)
+        })?;
+        for group in &mut self.groups {
+            group.act_cache = None;
+        }
+        Ok(losses)
+    }
+
+    /// Every group's losses of `kind`, their gradients and optimiser steps,
+    /// then parameter-mode sharing. Without other workers and without
+    /// gradient sharing nothing crosses groups before the step, so each
+    /// group steps in its own worker right after its backward pass; otherwise
+    /// the gradients are first averaged over workers and mixed over the graph.
+    fn step_groups<F>(&mut self, kind: NetworkGroup, loss: F) -> Result<Vec<f32>, NnError>
+    where
+        F: Fn(usize, &Group) -> Result<Tensor<1>, NnError> + Sync,
+    {
+        let fused = self.comm.workers() <= 1 && !self.sharing.mixes_gradients(kind);
+        let lr = match kind {
+            NetworkGroup::Actors => self.net.lr_actor,
+            NetworkGroup::Critics => self.net.lr_critic,
+        };
+        let results = self.per_group(|g, group| {
+            let l = loss(g, group)?;
+            group.nets.step(kind, l, lr, fused)
+        })?;
+        let (losses, grads): (Vec<Vec<f32>>, Vec<Option<GradientsParams>>) = results.into_iter().unzip();
+        if !fused {
+            self.reduce_mix_optimize(kind, lr, grads.into_iter().flatten().collect())?;
+        }
+        self.sharing.mix_parameters(kind, &mut Shared { groups: &mut self.groups })?;
+        Ok(losses.concat())
+    }
+
+    /// Worker averaging and gradient-mode sharing, then every group's optimiser step.
+    fn reduce_mix_optimize(
+        &mut self,
+        kind: NetworkGroup,
+        lr: f64,
+        mut grads: Vec<GradientsParams>,
+    ) -> Result<(), NnError> {
+        if self.comm.workers() > 1 {
+            for (group, g) in self.groups.iter().zip(grads.iter_mut()) {
+                all_reduce(g, &group.nets.ids(kind), self.comm.as_ref())?;
+            }
+        }
+        if self.sharing.mixes_gradients(kind) {
+            let ids = self.groups.iter().map(|g| g.nets.trunk_ids(kind)).collect();
+            let (agents, device) = (self.num_agents(), self.device.clone());
+            self.sharing.mix_gradients(kind, &mut SharedGrads { grads: &mut grads, ids, agents, device })?;
+        }
+        for (group, g) in self.groups.iter_mut().zip(grads) {
+            group.nets.optimize(kind, lr, g);
+        }
+        Ok(())
+    }
+
+    /// The agent-major joint action `[n, action_dim]` of `f(g, group)`, each
+    /// group's agents' actions `[A_g, n, d_max]` (masked by the group).
+    pub(crate) fn joint_of(
+        &mut self,
+        f: impl Fn(usize, &Group) -> Result<Tensor<3>, NnError> + Sync,
+    ) -> Result<Tensor<2>, NnError> {
+        let parts = self.per_group(|g, group| Ok(group.joint.join(f(g, group)? * group.joint.mask.clone())))?;
+        let mut parts = parts.into_iter();
+        let first = parts.next().ok_or(NnError::Backend { what: "joint action", reason: "no group".into() })?;
+        Ok(parts.fold(first, |acc, p| acc + p))
+    }
+
+    /// `b` with the sampled joint actions replaced by every agent's current
+    /// action `squash(heads)` (no gradient): the teammates' actions of
+    /// [`crate::Teammates::Current`].
+    pub(crate) fn with_current_actions(
+        &mut self,
+        b: &BatchTensors,
+        squash: impl Fn(Tensor<3>, &Group) -> Tensor<3> + Sync,
+    ) -> Result<BatchTensors, NnError> {
+        let actions =
+            self.joint_of(|g, group| Ok(squash(group.nets.actors.valid().forward(b.groups[g].x_now.clone()), group)))?;
+        Ok(BatchTensors { actions, ..b.clone() })
+    }
+
+    /// Targets move towards the online networks (eq. 9).
+    pub(crate) fn soft_update_targets(&mut self, polyak: f64, actors: bool) {
+        let p = polyak as f32;
+        for group in &mut self.groups {
+            let nets = &mut group.nets;
+            if actors {
+                nets.actor_targets.soft_update(&nets.actors, p);
+            }
+            for (t, o) in nets.critic_targets.nets.iter_mut().zip(&nets.critics.nets) {
+                t.soft_update(o, p);
+            }
+        }
+    }
+}
