@@ -1,6 +1,6 @@
 //! Guards the GPU code path (feature `wgpu`), run by `scripts/test_gpu.sh` on
-//! Mesa's CPU Vulkan driver (lavapipe, device `wgpu:cpu`) or on a GPU, and
-//! type-checked by CI (its build takes over 20 minutes on 2 cores): the
+//! Mesa's CPU Vulkan driver (lavapipe, device `wgpu:cpu`) or on a GPU (CI only
+//! type-checks fmsr-nn's GPU code: this build takes over 20 minutes on 2 cores): the
 //! device is found by name and a missing one is an error listing what
 //! exists; joint MADDPG updates on the device, where the agents are one
 //! stacked network (`Stacking::Auto`), equal the same updates on burn's `flex`
