@@ -11,11 +11,13 @@
 //! and its normaliser.
 //!
 //! The numbers are bit patterns of one CPU's arithmetic: burn's and faer's
-//! kernels choose their SIMD paths at run time. They are compared on a CPU
-//! with the instruction sets of the recording (the project's machine and its
-//! CI); on another one the test says so and compares nothing. To record anew
-//! (only when numbers are meant to change, and the commit says why):
-//! `FMSR_GOLDEN=record cargo test --workspace --test golden`.
+//! kernels choose their SIMD paths at run time. The file holds one recording
+//! per set of instruction sets, each made at a commit before the redesign
+//! (its `commit`); a CPU compares against the recording of its own sets, and
+//! on a CPU without one the test says so and compares nothing. To record this
+//! CPU's (beside the others; only on code whose numbers are the reference, or
+//! when numbers are meant to change, and the commit says why):
+//! `FMSR_GOLDEN=record FMSR_GOLDEN_COMMIT=<commit> cargo test --workspace --test golden`.
 
 mod common;
 
@@ -47,11 +49,20 @@ struct Trace {
     first_action: Vec<f32>,
 }
 
+/// One CPU's recording.
 #[derive(Debug, Serialize, Deserialize)]
-struct Golden {
+struct Recording {
     /// The instruction sets of the CPU that recorded the traces.
     cpu: String,
+    /// The commit whose code recorded them.
+    commit: String,
     traces: Vec<Trace>,
+}
+
+/// The file: one recording per set of instruction sets.
+#[derive(Debug, Default, Serialize, Deserialize)]
+struct Golden {
+    recordings: Vec<Recording>,
 }
 
 /// The target architecture and the SIMD instruction sets its kernels choose from.
@@ -138,20 +149,23 @@ fn traces() -> Vec<Trace> {
 #[test]
 fn every_algorithm_repeats_its_recorded_run_bit_for_bit() {
     let cpu = cpu();
+    let mut golden: Golden = serde_json::from_slice(&std::fs::read(GOLDEN).unwrap()).unwrap();
     if std::env::var("FMSR_GOLDEN").as_deref() == Ok("record") {
-        let golden = Golden { cpu, traces: traces() };
+        let commit = std::env::var("FMSR_GOLDEN_COMMIT").expect("FMSR_GOLDEN_COMMIT: the commit being recorded");
+        golden.recordings.retain(|r| r.cpu != cpu);
+        golden.recordings.push(Recording { cpu, commit, traces: traces() });
         std::fs::write(GOLDEN, serde_json::to_string_pretty(&golden).unwrap() + "\n").unwrap();
-        eprintln!("recorded {GOLDEN}");
+        eprintln!("recorded this CPU's traces in {GOLDEN}");
         return;
     }
-    let golden: Golden = serde_json::from_slice(&std::fs::read(GOLDEN).unwrap()).unwrap();
-    if golden.cpu != cpu {
-        eprintln!("{GOLDEN} was recorded on `{}`, this CPU is `{cpu}`: nothing compared", golden.cpu);
+    let Some(recording) = golden.recordings.iter().find(|r| r.cpu == cpu) else {
+        let known: Vec<&str> = golden.recordings.iter().map(|r| r.cpu.as_str()).collect();
+        eprintln!("{GOLDEN} holds recordings of {known:?}, none of this CPU's `{cpu}`: nothing compared");
         return;
-    }
+    };
     let now = traces();
-    assert_eq!(now.len(), golden.traces.len());
-    for (now, then) in now.iter().zip(&golden.traces) {
+    assert_eq!(now.len(), recording.traces.len());
+    for (now, then) in now.iter().zip(&recording.traces) {
         assert_eq!(now.run, then.run, "the runs of the golden test changed: record anew");
         for (epoch, (a, b)) in now.history.iter().zip(&then.history).enumerate() {
             assert_eq!(a, b, "{}: epoch {epoch}'s statistics differ from the recording", now.run);
