@@ -94,11 +94,12 @@ fn train(shadow: bool) -> Result<f64> {
     };
     let rewards = AgentRewards::new(assignment.resolve(&spec)?, SqrtUtility { c: 0.05 }, 0.2)?;
     let estimator = MeanOfRecent { window: 20, episodes: VecDeque::new(), estimate: vec![0.0; spec.features.len()] };
-    let collector = Collector::new(env, layout.clone(), estimator, rewards)?;
+    let shadow = ShadowRewards::new(&spec, estimator, rewards)?;
+    let collector = Collector::new(env, layout.clone())?;
     let networks = NetworkConfig::new().with_hidden(64).with_layers(2).with_seed(2);
     let replay = ReplayConfig { batches: 20, batch_size: 128, buffer_size: 100_000, ..ReplayConfig::default() };
     let parts = LearnerParts::new(layout, networks, replay, config.gamma_for(spec.episode_len));
-    let mut trainer = Trainer::with_collector(config, collector, Maddpg::new(parts, MaddpgConfig::new())?)?;
+    let mut trainer = Trainer::from_parts(config, collector, shadow, Maddpg::new(parts, MaddpgConfig::new())?)?;
     trainer.train(|_, s| {
         println!("  epoch {}: success {:.2}, estimate {:.3}", s.epoch, s.success_rate, s.occupancy[0]);
         Ok(())

@@ -48,7 +48,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use fmsr_core::config::{Method, SharingConfig};
+use fmsr_core::method::Method;
 use fmsr_core::prelude::*;
 use fmsr_core::replay::ReplayConfig;
 use fmsr_envs::shadow_hand::ShadowHandConfig;

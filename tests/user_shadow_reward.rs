@@ -74,9 +74,10 @@ fn safe_region_rate(shadow: bool) -> f64 {
     let assignment = if shadow { assignment } else { RewardAssignment::task_only(&spec) };
     let rewards = AgentRewards::new(assignment.resolve(&spec).unwrap(), SqrtUtility { c: 0.05 }, 0.2).unwrap();
     let estimator = MeanOfRecent { window: 20, episodes: VecDeque::new(), estimate: vec![0.0; spec.features.len()] };
-    let collector = Collector::new(env, layout, estimator, rewards).unwrap();
+    let shadow = ShadowRewards::new(&spec, estimator, rewards).unwrap();
+    let collector = Collector::new(env, layout).unwrap();
     let learner = AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new()).unwrap());
-    let mut trainer = Trainer::with_collector(config, collector, learner).unwrap();
+    let mut trainer = Trainer::from_parts(config, collector, shadow, learner).unwrap();
     trainer.train(|_, _| Ok(())).unwrap();
     assert!(trainer.occupancy()[0] > 0.0, "the user's estimator saw the feature");
     let seeds: Vec<u64> = (0..100).map(|i| 20_000 + i).collect();

@@ -196,42 +196,6 @@ pub struct Batch {
     pub rewards: Vec<Vec<f32>>,
 }
 
-/// What information sharing mixes (docs/design.md 3.7).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum ShareMode {
-    /// Mix the trunk parameters after each update (eq. 8, default).
-    #[default]
-    Parameters,
-    /// Mix the trunk gradients before each optimiser step.
-    Gradients,
-}
-
-/// Which networks information sharing mixes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum ShareTarget {
-    /// The actors' trunks (default).
-    #[default]
-    Actors,
-    /// The critics' trunks.
-    Critics,
-    /// Both.
-    Both,
-}
-
-/// Information sharing as a learner applies it: the validated mixing matrix
-/// over the agents (node `i` = agent `i`), the mode and the target.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Sharing {
-    /// The symmetric doubly stochastic mixing matrix `M` of eq. 8.
-    pub mixing: fmsr_graph::MixingMatrix,
-    /// Parameters (default) or gradients.
-    pub mode: ShareMode,
-    /// Actors (default), critics or both.
-    pub target: ShareTarget,
-}
-
 /// The collective operations between worker processes that training uses
 /// (the paper trains with 4 MPI workers; HER baselines with up to 19): every
 /// worker calls each operation in the same order. The single-process

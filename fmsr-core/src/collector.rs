@@ -1,10 +1,7 @@
-//! The collector: runs episodes of an [`Env`] with a [`Policy`], records the
-//! stability features `phi(s_t, a_t)`, and turns them into occupancy estimates
-//! (eq. 1) and each agent's shadow reward (eqs. 7, 11-15).
-//!
-//! It is generic over the environment, the [`OccupancyEstimator`] and the
-//! [`ShadowReward`] utility, so a user's own estimator or utility trains
-//! exactly like the paper's [`DiscountedOccupancy`] and [`LogUtility`].
+//! The collector: runs episodes of an [`Env`] with a [`Policy`] and records
+//! them (observations, actions, the stability features `phi(s_t, a_t)` of each
+//! step). What the features become, occupancy estimates (eq. 1) and each
+//! agent's shadow reward (eqs. 7, 11-15), is [`crate::shadow`]'s job.
 //!
 //! **Vectorised rollouts.** [`Collector::rollouts`] runs a list of seeded
 //! episodes on the collector's environments in lockstep: at every step one
@@ -47,80 +44,54 @@
 //!     }
 //! }
 //! let layout = ObservationLayout::new(spec.clone(), vec![vec![]])?;
-//! let occupancy = DiscountedOccupancy::new(1, 0.5, Averaging::Ema { beta: 1.0 })?;
-//! let assignment = RewardAssignment::all_features(&spec).resolve(&spec)?;
-//! let rewards = AgentRewards::new(assignment, LogUtility::default(), 0.1)?;
-//! let mut collector = Collector::new(env, layout, occupancy, rewards)?;
+//! let mut collector = Collector::new(env, layout)?;
 //! let episode = collector.rollout(&mut Right, 7, ActMode::Explore, &mut |_, _| {})?;
-//! let returns = collector.observe(&episode)?;
-//! // The feature is on at every step: lambda = (1 - 0.5) (1 + 0.5 + 0.25 + 0.125).
-//! assert!((collector.occupancy().estimate()[0] - 0.9375).abs() < 1e-9);
-//! assert_eq!(returns.len(), 1);
+//! // The feature is on at every step, and 4 steps were run.
+//! assert!(episode.features().iter().all(|phi| phi[0] == 1.0));
+//! assert_eq!(collector.env_steps(), 4);
 //! # Ok::<(), CoreError>(())
 //! ```
 
 use rayon::prelude::*;
 
 use crate::agent::ObservationLayout;
-use crate::algorithm::RewardModel;
 use crate::env::Env;
 use crate::error::CoreError;
-use crate::occupancy::{DiscountedOccupancy, OccupancyEstimator};
 use crate::policy::{ActMode, Policy};
 use crate::replay::Episode;
-use crate::shadow::{AgentRewards, LogUtility, ShadowReward};
 use crate::spec::{JointAction, Observation, StepOutcome};
 
 fn env_err<E: std::error::Error + Send + Sync + 'static>(e: E) -> CoreError {
     CoreError::Env(Box::new(e))
 }
 
-/// Per-agent sums of one episode's rewards ([`Collector::reward_sums`]).
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct RewardSums {
-    /// Undiscounted returns (task and shadow rewards, eq. 7).
-    pub returns: Vec<f64>,
-    /// Sums of `|w_i r|`, the task parts.
-    pub task_abs: Vec<f64>,
-    /// Sums of `|alpha sum_k z_k|`, the shadow parts.
-    pub shadow_abs: Vec<f64>,
-}
-
-/// Runs episodes and keeps the occupancy estimate; see the [module docs](self).
+/// Runs episodes; see the [module docs](self).
 #[derive(Debug)]
-pub struct Collector<E, O = DiscountedOccupancy, S = LogUtility> {
+pub struct Collector<E> {
     /// At least one environment; [`Collector::rollouts`] uses all of them.
     envs: Vec<E>,
     /// Threads stepping the environments (`None`: on the calling thread).
     pool: Option<rayon::ThreadPool>,
     layout: ObservationLayout,
-    occupancy: O,
-    rewards: AgentRewards<S>,
     env_steps: u64,
 }
 
-impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
-    /// A collector of `env` whose policies see actor inputs laid out by
-    /// `layout`, estimating occupancy with `occupancy` and rewarding agents with `rewards`.
+impl<E: Env> Collector<E> {
+    /// A collector of `env` whose policies see actor inputs laid out by `layout`.
     ///
     /// # Errors
-    /// [`CoreError`] when the layout, estimator or reward computation do not fit `env`'s spec.
-    pub fn new(env: E, layout: ObservationLayout, occupancy: O, rewards: AgentRewards<S>) -> Result<Self, CoreError> {
-        Self::with_envs(vec![env], layout, occupancy, rewards)
+    /// [`CoreError`] when the layout does not fit `env`'s spec.
+    pub fn new(env: E, layout: ObservationLayout) -> Result<Self, CoreError> {
+        Self::with_envs(vec![env], layout)
     }
 
     /// A collector of several copies of one environment (all with the same
     /// spec), for [`Collector::rollouts`].
     ///
     /// # Errors
-    /// [`CoreError`] when `envs` is empty, their specs differ, or the layout,
-    /// estimator or reward computation do not fit the spec.
-    pub fn with_envs(
-        envs: Vec<E>,
-        layout: ObservationLayout,
-        occupancy: O,
-        rewards: AgentRewards<S>,
-    ) -> Result<Self, CoreError> {
+    /// [`CoreError`] when `envs` is empty, their specs differ, or the layout
+    /// does not fit the spec.
+    pub fn with_envs(envs: Vec<E>, layout: ObservationLayout) -> Result<Self, CoreError> {
         let Some(first) = envs.first() else {
             return Err(CoreError::InvalidConfig { key: "trainer.envs".into(), reason: "must be at least 1".into() });
         };
@@ -138,21 +109,7 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
                 reason: "the observation layout was built for another environment spec".into(),
             });
         }
-        if occupancy.estimate().len() != spec.features.len() {
-            return Err(CoreError::Dimension {
-                what: "occupancy features",
-                expected: spec.features.len(),
-                found: occupancy.estimate().len(),
-            });
-        }
-        if rewards.num_agents() != spec.agents.len() {
-            return Err(CoreError::Dimension {
-                what: "reward assignment agents",
-                expected: spec.agents.len(),
-                found: rewards.num_agents(),
-            });
-        }
-        Ok(Self { envs, pool: None, layout, occupancy, rewards, env_steps: 0 })
+        Ok(Self { envs, pool: None, layout, env_steps: 0 })
     }
 
     /// Steps the environments on `threads` threads (1: on the calling thread).
@@ -181,46 +138,6 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
         self.envs.len()
     }
 
-    /// Records a finished training episode: its features update the occupancy
-    /// estimate (eq. 1). Returns each agent's undiscounted return (task and
-    /// shadow rewards, eq. 7) under the updated estimate.
-    ///
-    /// # Errors
-    /// Features outside `[0, 1]` or of the wrong length.
-    pub fn observe(&mut self, episode: &Episode) -> Result<Vec<f64>, CoreError> {
-        self.occupancy.observe_episode(&episode.features())?;
-        Ok(self.reward_sums(episode).returns)
-    }
-
-    /// Updates the occupancy estimate with one episode's features
-    /// `features[t][k] = phi_k(s_t, a_t)` (e.g. an episode of another worker).
-    ///
-    /// # Errors
-    /// The estimator's error for features of the wrong shape.
-    pub fn observe_features(&mut self, features: &[Vec<f32>]) -> Result<(), CoreError> {
-        self.occupancy.observe_episode(features)
-    }
-
-    /// Each agent's sums over `episode` under the current estimate: its
-    /// undiscounted return and the magnitudes of its task and shadow parts.
-    #[must_use]
-    pub fn reward_sums(&self, episode: &Episode) -> RewardSums {
-        let n = self.rewards.num_agents();
-        let mut sums = RewardSums { returns: vec![0.0; n], task_abs: vec![0.0; n], shadow_abs: vec![0.0; n] };
-        for (t, info) in episode.infos.iter().enumerate() {
-            let o = &episode.observations[t + 1];
-            let task = self.envs[0].goal_reward(&o.achieved_goal, &o.desired_goal);
-            for (i, (task_part, shadow_part)) in
-                self.rewards.parts(task, &info.features, self.occupancy.estimate()).enumerate()
-            {
-                sums.returns[i] += f64::from((task_part + shadow_part) as f32);
-                sums.task_abs[i] += task_part.abs();
-                sums.shadow_abs[i] += shadow_part.abs();
-            }
-        }
-        sums
-    }
-
     /// The (first) environment.
     #[must_use]
     pub fn env(&self) -> &E {
@@ -238,32 +155,19 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
         &self.layout
     }
 
-    /// The occupancy estimator.
-    #[must_use]
-    pub fn occupancy(&self) -> &O {
-        &self.occupancy
-    }
-
-    /// The per-agent reward computation.
-    #[must_use]
-    pub fn rewards(&self) -> &AgentRewards<S> {
-        &self.rewards
-    }
-
     /// Environment steps run so far.
     #[must_use]
     pub fn env_steps(&self) -> u64 {
         self.env_steps
     }
 
-    /// Restores the estimator and step counter of a checkpoint.
-    pub(crate) fn restore(&mut self, occupancy: O, env_steps: u64) {
-        self.occupancy = occupancy;
+    /// Restores the step counter of a checkpoint.
+    pub(crate) fn restore(&mut self, env_steps: u64) {
         self.env_steps = env_steps;
     }
 }
 
-impl<E: Env + Send, O: OccupancyEstimator, S: ShadowReward> Collector<E, O, S> {
+impl<E: Env + Send> Collector<E> {
     /// Runs one episode per seed, in lockstep on the environments (chunks of
     /// [`Collector::num_envs`] seeds); returns the episodes in seed order. See
     /// the [module docs](self).
@@ -408,18 +312,4 @@ fn check_outcome(outcome: &StepOutcome, spec: &crate::spec::EnvSpec) -> Result<(
         });
     }
     Ok(())
-}
-
-impl<E: Env, O: OccupancyEstimator, S: ShadowReward> RewardModel for Collector<E, O, S> {
-    fn goal_reward(&self, achieved: &[f32], desired: &[f32]) -> f32 {
-        self.envs[0].goal_reward(achieved, desired)
-    }
-
-    fn agent_rewards(&self, task: f32, phi: &[f32], out: &mut [f32]) {
-        self.rewards.compute(task, phi, self.occupancy.estimate(), out);
-    }
-
-    fn reward_bounds(&self) -> Vec<(f64, f64)> {
-        self.rewards.step_bounds(self.envs[0].spec().reward_range)
-    }
 }

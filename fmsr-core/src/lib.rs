@@ -20,7 +20,7 @@
 //! lambda_k = (1 - gamma) * sum_{t=0}^{T-1} gamma^t * phi_k(s_t, a_t),
 //! ```
 //!
-//! averaged over recent episodes ([`occupancy::DiscountedOccupancy`]).
+//! averaged over recent episodes ([`shadow::DiscountedOccupancy`]).
 //!
 //! **Shadow reward** (eqs. 2, 7, 11-12). A concave utility `F_k(lambda) = log(lambda_k + 0.1)`
 //! is maximised through the per-step reward `z_k = phi_k / (lambda_k + 0.1)`, its
@@ -56,9 +56,14 @@
 //! - [`Policy`] (acting for all agents, with its own exploration) and
 //!   [`Algorithm`] (a policy that owns its storage, update schedule, targets and
 //!   save/restore); [`agent::ObservationLayout`] assembles actor inputs.
-//! - [`Collector`]: runs episodes, estimates occupancy with any
-//!   [`OccupancyEstimator`] and rewards agents with any [`ShadowReward`].
-//! - [`sharing::InformationSharing`]: the algorithm-independent consensus step (eq. 8).
+//! - [`Collector`]: runs episodes (in lockstep on several environments).
+//! - [`shadow`]: the shadow rewards of the method (FMSR): any
+//!   [`OccupancyEstimator`] (eq. 1), any utility [`ShadowReward`] (eqs. 2,
+//!   11-12), the finger-specific assignment (eqs. 13-15), held together by
+//!   [`shadow::ShadowRewards`], which gives the learners their rewards (eq. 7).
+//! - [`sharing`]: information sharing (IS), its settings and the
+//!   algorithm-independent consensus step (eq. 8), [`sharing::InformationSharing`].
+//! - [`method::Method`]: the paper's four configurations.
 //! - [`replay::ReplayBuffer`]: joint transitions with HER "future" relabelling.
 //! - [`trainer::Trainer`]: collect -> store -> update (and share) -> evaluate -> checkpoint.
 #![warn(missing_docs)]
@@ -66,12 +71,11 @@
 pub mod agent;
 pub mod algorithm;
 pub mod collector;
-pub mod config;
 pub mod env;
 pub mod error;
 pub mod interval;
+pub mod method;
 pub mod metrics;
-pub mod occupancy;
 pub mod persist;
 pub mod policy;
 pub mod replay;
@@ -86,29 +90,31 @@ pub use algorithm::{Algorithm, RewardModel};
 pub use collector::Collector;
 pub use env::{ContactReadout, Env};
 pub use error::CoreError;
-pub use occupancy::OccupancyEstimator;
 pub use policy::{ActMode, Policy, PolicyState};
-pub use shadow::ShadowReward;
+pub use shadow::{OccupancyEstimator, ShadowReward};
 
 /// The items most users need.
 pub mod prelude {
-    pub use crate::agent::{
-        ActorView, Batch, Communicator, ObservationLayout, ShareMode, ShareTarget, Sharing, SingleProcess,
-    };
+    pub use crate::agent::{ActorView, Batch, Communicator, ObservationLayout, SingleProcess};
     pub use crate::algorithm::{Algorithm, RewardModel, UpdateStats};
     pub use crate::collector::Collector;
-    pub use crate::config::{Method, MixingChoice, ShadowConfig, SharingConfig};
     pub use crate::env::{ContactPoint, ContactReadout, Env, ObjectContacts};
     pub use crate::error::CoreError;
+    pub use crate::method::Method;
     pub use crate::metrics::{
         EpisodeOutcome, EpisodeSummary, FailureCounts, FailureRow, FailureType, GraspQuality, GraspTrace, MeanStd,
         StabilityRow,
     };
-    pub use crate::occupancy::{Averaging, DiscountedOccupancy, OccupancyEstimator};
     pub use crate::policy::{ActMode, Policy, PolicyOutput, PolicyState};
     pub use crate::replay::{Episode, HerConfig, ReplayBuffer, ReplayConfig};
-    pub use crate::shadow::{AgentReward, AgentRewards, LogUtility, RewardAssignment, ShadowMode, ShadowReward};
-    pub use crate::sharing::{InformationSharing, NetworkGroup, SharedParameters};
+    pub use crate::shadow::{
+        AgentReward, AgentRewards, Averaging, DiscountedOccupancy, LogUtility, OccupancyEstimator, RewardAssignment,
+        ShadowConfig, ShadowMode, ShadowReward, ShadowRewards,
+    };
+    pub use crate::sharing::{
+        InformationSharing, MixingChoice, NetworkGroup, ShareMode, ShareTarget, SharedParameters, Sharing,
+        SharingConfig,
+    };
     pub use crate::spec::{AgentSpec, EnvSpec, JointAction, Observation, RewardType, StepInfo, StepOutcome};
     pub use crate::trainer::{EpochStats, EvalSummary, Trainer, TrainerConfig};
 }

@@ -15,9 +15,9 @@ mod common;
 
 use std::collections::BTreeMap;
 
-use fmsr_core::agent::{ShareMode, ShareTarget, Sharing};
 use fmsr_core::algorithm::Algorithm;
 use fmsr_core::replay::ReplayConfig;
+use fmsr_core::sharing::{ShareMode, ShareTarget, Sharing};
 use fmsr_graph::{Graph, MetropolisHastings};
 use fmsr_nn::prelude::*;
 

@@ -7,7 +7,7 @@
 
 mod common;
 
-use fmsr_core::agent::{ShareMode, ShareTarget, Sharing};
+use fmsr_core::sharing::{ShareMode, ShareTarget, Sharing};
 use fmsr_graph::{Graph, MetropolisHastings, average, disagreement};
 use fmsr_nn::prelude::*;
 

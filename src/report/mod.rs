@@ -25,7 +25,7 @@ use std::sync::Once;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-use fmsr_core::config::Method;
+use fmsr_core::method::Method;
 use fmsr_core::persist::write_atomic;
 use fmsr_core::trainer::EpochStats;
 

@@ -11,9 +11,9 @@ use super::{EpochStats, Trainer, TrainerConfig, TrainerState, algo_err};
 use crate::algorithm::Algorithm;
 use crate::env::Env;
 use crate::error::CoreError;
-use crate::occupancy::OccupancyEstimator;
 use crate::persist;
 use crate::replay_log::ReplayLog;
+use crate::shadow::OccupancyEstimator;
 use crate::shadow::ShadowReward;
 
 const MAGIC: &[u8; 8] = b"FMSRCKPT";
@@ -180,7 +180,7 @@ where
         let meta = CheckpointMeta {
             config: self.config.clone(),
             state: self.state.clone(),
-            occupancy: self.collector.occupancy(),
+            occupancy: self.shadow.occupancy(),
             env_steps: self.collector.env_steps(),
             workers: self.comm.workers(),
             rank: self.comm.rank(),
@@ -284,7 +284,8 @@ where
 
     fn apply_checkpoint(&mut self, meta: CheckpointMeta<O>, algorithm: &[u8]) -> Result<(), CoreError> {
         self.algorithm.load_state(algorithm).map_err(algo_err)?;
-        self.collector.restore(meta.occupancy, meta.env_steps);
+        self.shadow.restore(meta.occupancy);
+        self.collector.restore(meta.env_steps);
         self.log = ReplayLog::default();
         self.state = meta.state;
         Ok(())

@@ -2,8 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::ShadowConfig;
 use crate::error::CoreError;
+use crate::shadow::ShadowConfig;
 
 /// Settings of the training loop (defaults: the paper's, docs/design.md 3.10). The
 /// algorithm's own settings (replay, batches, networks, exploration) live in

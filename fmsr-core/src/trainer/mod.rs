@@ -5,7 +5,7 @@
 //! (`Trainer::collect`); each episode goes into the algorithm's storage and its
 //! features update the occupancy estimate `lambda` (eq. 1); then the algorithm's
 //! updates of the cycle (`Trainer::update`), with every agent's reward `r_i`
-//! (eq. 7) computed from the current `lambda` by the [`Collector`], and the
+//! (eq. 7) computed from the current `lambda` by the [`ShadowRewards`], and the
 //! information sharing the algorithm applies between its critic and actor steps
 //! ([`crate::sharing`]). At the end of an epoch the policy is evaluated on fresh
 //! seeded episodes ([`Trainer::evaluate`]); the caller of [`Trainer::train`]
@@ -32,12 +32,11 @@ use crate::algorithm::Algorithm;
 use crate::collector::Collector;
 use crate::env::Env;
 use crate::error::CoreError;
-use crate::occupancy::{DiscountedOccupancy, OccupancyEstimator};
 use crate::policy::ActMode;
 use crate::replay::Episode;
 use crate::replay_log::ReplayLog;
 use crate::seeding::{rank_rng, splitmix64};
-use crate::shadow::{LogUtility, ShadowReward};
+use crate::shadow::{DiscountedOccupancy, LogUtility, OccupancyEstimator, ShadowReward, ShadowRewards};
 use crate::spec::StepOutcome;
 
 /// The loop's own state: what a checkpoint restores besides the algorithm and the estimator.
@@ -55,7 +54,8 @@ struct TrainerState {
 #[derive(Debug)]
 pub struct Trainer<E, A, O = DiscountedOccupancy, S = LogUtility> {
     config: TrainerConfig,
-    collector: Collector<E, O, S>,
+    collector: Collector<E>,
+    shadow: ShadowRewards<O, S>,
     algorithm: A,
     state: TrainerState,
     log: ReplayLog,
@@ -95,25 +95,36 @@ impl<E: Env + Send, A: Algorithm> Trainer<E, A> {
         let gamma = config.gamma_for(spec.episode_len);
         let rewards = config.shadow.agent_rewards(&spec)?;
         let occupancy = config.shadow.occupancy(&spec, gamma)?;
-        let collector = Collector::with_envs(envs, layout, occupancy, rewards)?;
-        Self::with_collector(config, collector, algorithm)
+        let shadow = ShadowRewards::new(&spec, occupancy, rewards)?;
+        let collector = Collector::with_envs(envs, layout)?;
+        Self::from_parts(config, collector, shadow, algorithm)
     }
 }
 
 impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Trainer<E, A, O, S> {
-    /// A trainer of `algorithm` with a collector of your own (your own
-    /// [`OccupancyEstimator`] and [`ShadowReward`]). `config.shadow` is not
-    /// used to build anything here: the collector carries the estimator and rewards.
+    /// A trainer of `algorithm` from its parts: a collector, and shadow rewards
+    /// of your own (your own [`OccupancyEstimator`] and [`ShadowReward`]).
+    /// `config.shadow` is not used to build anything here, except its
+    /// `max_scale` check: `shadow` carries the estimator and rewards.
     ///
     /// # Errors
-    /// [`CoreError`] when the config is invalid or the algorithm has another number of agents.
-    pub fn with_collector(
+    /// [`CoreError`] when the config is invalid, or the shadow rewards or the
+    /// algorithm have another number of agents than the collector's environment.
+    pub fn from_parts(
         config: TrainerConfig,
-        collector: Collector<E, O, S>,
+        collector: Collector<E>,
+        shadow: ShadowRewards<O, S>,
         algorithm: A,
     ) -> Result<Self, CoreError> {
         config.validate()?;
         let agents = collector.env().spec().agents.len();
+        if shadow.rewards().num_agents() != agents {
+            return Err(CoreError::Dimension {
+                what: "reward assignment agents",
+                expected: agents,
+                found: shadow.rewards().num_agents(),
+            });
+        }
         if algorithm.num_agents() != agents {
             return Err(CoreError::Dimension {
                 what: "algorithm agents",
@@ -128,7 +139,15 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
             history: Vec::new(),
             stored_episodes: 0,
         };
-        Ok(Self { config, collector, algorithm, state, log: ReplayLog::default(), comm: Arc::new(SingleProcess) })
+        Ok(Self {
+            config,
+            collector,
+            shadow,
+            algorithm,
+            state,
+            log: ReplayLog::default(),
+            comm: Arc::new(SingleProcess),
+        })
     }
 
     /// Trains as one of `comm.workers()` worker processes (MPI) of one run:
@@ -172,10 +191,16 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
         &mut self.algorithm
     }
 
-    /// The collector (environment, layout, occupancy estimate, rewards).
+    /// The collector (environments, layout, steps run).
     #[must_use]
-    pub fn collector(&self) -> &Collector<E, O, S> {
+    pub fn collector(&self) -> &Collector<E> {
         &self.collector
+    }
+
+    /// The shadow rewards (occupancy estimate and the agents' rewards).
+    #[must_use]
+    pub fn shadow_rewards(&self) -> &ShadowRewards<O, S> {
+        &self.shadow
     }
 
     /// The environment.
@@ -210,7 +235,7 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
     /// The current occupancy estimate, one value per feature.
     #[must_use]
     pub fn occupancy(&self) -> &[f64] {
-        self.collector.occupancy().estimate()
+        self.shadow.estimate()
     }
 
     /// Runs one episode from `seed` with the algorithm's policy in `mode`.
@@ -285,7 +310,7 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
         }
         self.observe_every_worker(&episodes)?;
         for episode in episodes {
-            tally.add_episode(&episode, &self.collector.reward_sums(&episode));
+            tally.add_episode(&episode, &self.shadow.reward_sums(self.collector.env(), &episode));
             self.log.push(episode, self.algorithm.storage_capacity());
             self.state.stored_episodes += 1;
         }
@@ -308,7 +333,7 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
         for e in 0..episodes.len() * self.comm.workers() {
             let episode = &all[e * steps * k..(e + 1) * steps * k];
             let features: Vec<Vec<f32>> = (0..steps).map(|t| episode[t * k..(t + 1) * k].to_vec()).collect();
-            self.collector.observe_features(&features)?;
+            self.shadow.observe_episode(&features)?;
         }
         Ok(())
     }
@@ -316,7 +341,8 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
     /// Update (and share): the algorithm's updates of one cycle.
     fn update(&mut self, tally: &mut EpochTally) -> Result<(), CoreError> {
         let start = Instant::now();
-        let stats = self.algorithm.update(&self.collector).map_err(algo_err)?;
+        let rewards = self.shadow.reward_model(self.collector.env());
+        let stats = self.algorithm.update(&rewards).map_err(algo_err)?;
         tally.add_update(&stats, start.elapsed().as_secs_f64());
         Ok(())
     }

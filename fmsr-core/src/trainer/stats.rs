@@ -5,8 +5,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::agent::Communicator;
 use crate::algorithm::UpdateStats;
-use crate::collector::RewardSums;
 use crate::replay::Episode;
+use crate::shadow::RewardSums;
 use crate::spec::StepInfo;
 
 /// Statistics of one epoch.

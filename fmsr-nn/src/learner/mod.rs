@@ -27,9 +27,9 @@ mod steps;
 
 use burn::optim::AdamConfig;
 use burn::tensor::{Device, Tensor, TensorData};
-use fmsr_core::agent::{Communicator, ObservationLayout, Sharing};
+use fmsr_core::agent::{Communicator, ObservationLayout};
 use fmsr_core::replay::{ReplayBuffer, ReplayConfig};
-use fmsr_core::sharing::{InformationSharing, NetworkGroup};
+use fmsr_core::sharing::{InformationSharing, NetworkGroup, Sharing};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 

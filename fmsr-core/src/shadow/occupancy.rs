@@ -32,7 +32,7 @@ pub trait OccupancyEstimator {
 /// `lambda_k = (1 - gamma) * sum_t gamma^t * phi_k(s_t, a_t)`.
 ///
 /// ```
-/// use fmsr_core::occupancy::episode_occupancy;
+/// use fmsr_core::shadow::occupancy::episode_occupancy;
 /// // Two steps, one feature on at t = 1 only, gamma = 0.5: (1 - 0.5) * 0.5 = 0.25.
 /// let lambda = episode_occupancy(&[vec![0.0], vec![1.0]], 1, 0.5).unwrap();
 /// assert_eq!(lambda, vec![0.25]);
@@ -85,7 +85,7 @@ impl Default for Averaging {
 /// Before any episode is observed the estimate is 0 for every feature.
 ///
 /// ```
-/// use fmsr_core::occupancy::{Averaging, DiscountedOccupancy, OccupancyEstimator};
+/// use fmsr_core::shadow::occupancy::{Averaging, DiscountedOccupancy, OccupancyEstimator};
 /// let mut occ = DiscountedOccupancy::new(1, 0.5, Averaging::Window { episodes: 2 }).unwrap();
 /// occ.observe_episode(&[vec![1.0], vec![1.0]]).unwrap(); // 0.5 * (1 + 0.5) = 0.75
 /// occ.observe_episode(&[vec![0.0], vec![0.0]]).unwrap(); // 0

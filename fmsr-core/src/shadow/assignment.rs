@@ -1,108 +1,11 @@
-//! Shadow rewards (paper eqs. 2, 7, 11-15; docs/design.md 3.4-3.5).
-//!
-//! A shadow reward turns a concave utility `F_k(lambda_k)` of the occupancy of a
-//! stability feature into a per-step reward. We *maximise*
-//! `F_k(lambda) = log(lambda_k + 0.1)` (the paper writes `-log`, which would push
-//! the occupancy down; docs/design.md 3.4). Two modes:
-//!
-//! - [`ShadowMode::Gradient`] (default): the general-utility policy gradient. By
-//!   the chain rule `grad F(lambda) = sum_{s,a} dF/dlambda * grad lambda(s, a)`, so
-//!   the per-step reward is `z_k(s, a) = F'(lambda_k) * phi_k(s, a) = phi_k(s, a) / (lambda_k + 0.1)`.
-//! - [`ShadowMode::Value`]: adds `F_k(lambda_k)` itself at every step, as eq. (2)
-//!   literally says; kept for ablation.
-//!
-//! Agent `i` learns from `r_i = w_task * r_task + alpha * sum_{k in S_i} z_k` in its
-//! critic target (eq. 7), where `S_i` is its finger-specific set of features
-//! ([`RewardAssignment`], eqs. 13-15).
+//! Finger-specific reward assignment (eqs. 13-15) and each agent's reward `r_i`
+//! (eq. 7; docs/design.md 3.5).
 
 use serde::{Deserialize, Serialize};
 
+use super::utility::{LogUtility, ShadowReward};
 use crate::error::CoreError;
 use crate::spec::EnvSpec;
-
-/// A utility `F(lambda)` of an occupancy, and the per-step shadow reward that follows from it.
-pub trait ShadowReward {
-    /// The utility `F(lambda)`.
-    fn utility(&self, lambda: f64) -> f64;
-
-    /// The per-step shadow reward for a step whose feature value is `phi`, when
-    /// the current occupancy estimate of the feature is `lambda`.
-    fn step_reward(&self, phi: f64, lambda: f64) -> f64;
-
-    /// Smallest and largest value [`ShadowReward::step_reward`] can take for
-    /// `phi` in `[0, 1]` and `lambda` in `[0, 1]` (used to bound Q targets).
-    fn step_reward_range(&self) -> (f64, f64);
-}
-
-/// Which per-step reward [`LogUtility`] gives.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum ShadowMode {
-    /// `z = phi * F'(lambda)`: the policy gradient of the utility (default).
-    #[default]
-    Gradient,
-    /// `z = F(lambda)` at every step, as eq. (2) literally says.
-    Value,
-}
-
-/// `F(lambda) = log(lambda + offset)` (eqs. 11-12 with the sign of docs/design.md 3.4).
-///
-/// ```
-/// use fmsr_core::shadow::{LogUtility, ShadowMode, ShadowReward};
-/// let f = LogUtility::default(); // offset 0.1, gradient mode
-/// assert!((f.step_reward(1.0, 0.0) - 10.0).abs() < 1e-12);  // 1 / (0 + 0.1)
-/// assert!((f.step_reward(1.0, 1.0) - 1.0 / 1.1).abs() < 1e-12);
-/// assert_eq!(f.step_reward(0.0, 0.5), 0.0);
-/// let v = LogUtility { mode: ShadowMode::Value, ..LogUtility::default() };
-/// assert!((v.step_reward(0.0, 0.9) - 0.0).abs() < 1e-12); // log(1.0)
-/// ```
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct LogUtility {
-    /// The offset inside the logarithm (the paper's 0.1), positive.
-    pub offset: f64,
-    /// Gradient (default) or value mode.
-    pub mode: ShadowMode,
-}
-
-impl Default for LogUtility {
-    fn default() -> Self {
-        Self { offset: 0.1, mode: ShadowMode::Gradient }
-    }
-}
-
-impl LogUtility {
-    /// Checks that the offset is positive and finite.
-    pub fn validate(&self) -> Result<(), CoreError> {
-        if !(self.offset.is_finite() && self.offset > 0.0) {
-            return Err(CoreError::InvalidConfig {
-                key: "shadow.offset".into(),
-                reason: format!("{} must be positive", self.offset),
-            });
-        }
-        Ok(())
-    }
-}
-
-impl ShadowReward for LogUtility {
-    fn utility(&self, lambda: f64) -> f64 {
-        (lambda + self.offset).ln()
-    }
-
-    fn step_reward(&self, phi: f64, lambda: f64) -> f64 {
-        match self.mode {
-            ShadowMode::Gradient => phi / (lambda.max(0.0) + self.offset),
-            ShadowMode::Value => self.utility(lambda.max(0.0)),
-        }
-    }
-
-    fn step_reward_range(&self) -> (f64, f64) {
-        match self.mode {
-            ShadowMode::Gradient => (0.0, 1.0 / self.offset),
-            ShadowMode::Value => (self.utility(0.0), self.utility(1.0)),
-        }
-    }
-}
 
 /// The reward one agent learns from: the task reward with a weight and a set of
 /// shadow-reward features.
@@ -331,20 +234,6 @@ mod tests {
             features: vec!["safe_region".into(), "contacts".into()],
             reward_range: (-std::f32::consts::PI, 0.0),
         }
-    }
-
-    #[test]
-    fn log_utility_at_lambda_zero_and_one() {
-        let f = LogUtility::default();
-        assert!((f.utility(0.0) - 0.1f64.ln()).abs() < 1e-12);
-        assert!((f.utility(1.0) - 1.1f64.ln()).abs() < 1e-12);
-        assert!((f.step_reward(1.0, 0.0) - 10.0).abs() < 1e-12);
-        assert!((f.step_reward(1.0, 1.0) - 1.0 / 1.1).abs() < 1e-12);
-        assert!((f.step_reward(0.5, 1.0) - 0.5 / 1.1).abs() < 1e-12);
-        let v = LogUtility { mode: ShadowMode::Value, ..LogUtility::default() };
-        assert!((v.step_reward(0.0, 0.0) - 0.1f64.ln()).abs() < 1e-12);
-        assert!((v.step_reward(1.0, 1.0) - 1.1f64.ln()).abs() < 1e-12);
-        assert!(LogUtility { offset: 0.0, ..LogUtility::default() }.validate().is_err());
     }
 
     #[test]

@@ -16,9 +16,48 @@
 //! holds the parameters. Every algorithm of `fmsr-nn` calls the same two hooks
 //! at the same two places of its update, so IS means the same for all of them.
 
-use fmsr_graph::MixingMatrix;
+mod config;
 
-use crate::agent::{ShareMode, ShareTarget, Sharing};
+use fmsr_graph::MixingMatrix;
+use serde::{Deserialize, Serialize};
+
+pub use self::config::{MixingChoice, SharingConfig};
+
+/// What information sharing mixes (docs/design.md 3.7).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ShareMode {
+    /// Mix the trunk parameters after each update (eq. 8, default).
+    #[default]
+    Parameters,
+    /// Mix the trunk gradients before each optimiser step.
+    Gradients,
+}
+
+/// Which networks information sharing mixes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ShareTarget {
+    /// The actors' trunks (default).
+    #[default]
+    Actors,
+    /// The critics' trunks.
+    Critics,
+    /// Both.
+    Both,
+}
+
+/// Information sharing as a learner applies it: the validated mixing matrix
+/// over the agents (node `i` = agent `i`), the mode and the target.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Sharing {
+    /// The symmetric doubly stochastic mixing matrix `M` of eq. 8.
+    pub mixing: fmsr_graph::MixingMatrix,
+    /// Parameters (default) or gradients.
+    pub mode: ShareMode,
+    /// Actors (default), critics or both.
+    pub target: ShareTarget,
+}
 
 /// Which networks of the agents a consensus step acts on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -1,0 +1,63 @@
+//! The shadow rewards as configured (`[trainer.shadow]`).
+
+use serde::{Deserialize, Serialize};
+
+use super::assignment::{AgentRewards, RewardAssignment};
+use super::occupancy::{Averaging, DiscountedOccupancy};
+use super::utility::LogUtility;
+use crate::error::CoreError;
+use crate::spec::EnvSpec;
+
+/// Shadow rewards (FMSR): weight, utility, occupancy averaging and the finger-specific assignment.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ShadowConfig {
+    /// Whether agents receive shadow rewards at all (off: task reward only).
+    pub enabled: bool,
+    /// Weight `alpha` of the shadow rewards (eq. 2; default 0.1).
+    pub alpha: f64,
+    /// The utility `F` and the per-step reward mode.
+    pub utility: LogUtility,
+    /// How the occupancy is averaged over recent episodes.
+    pub occupancy: Averaging,
+    /// Which features each agent receives; `None` is the paper's eqs. 13-15.
+    pub assignment: Option<RewardAssignment>,
+    /// The largest ratio, for any agent, of its mean per-step shadow reward
+    /// `|alpha sum_k z_k|` to its mean per-step task reward `|w_i r|` over the
+    /// first cycle's episodes (default 1.0: shadow rewards must not outweigh the
+    /// task). Training stops with an error naming both values when an agent's
+    /// ratio is larger; `inf` disables the check. Every epoch logs the ratios
+    /// (`EpochStats::shadow_scale`).
+    pub max_scale: f64,
+}
+
+impl Default for ShadowConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            alpha: 0.1,
+            utility: LogUtility::default(),
+            occupancy: Averaging::default(),
+            assignment: None,
+            max_scale: 1.0,
+        }
+    }
+}
+
+impl ShadowConfig {
+    /// The per-agent reward computation for `spec` (task only when disabled).
+    pub fn agent_rewards(&self, spec: &EnvSpec) -> Result<AgentRewards, CoreError> {
+        self.utility.validate()?;
+        let assignment = if self.enabled {
+            self.assignment.clone().unwrap_or_else(RewardAssignment::paper)
+        } else {
+            RewardAssignment::task_only(spec)
+        };
+        AgentRewards::new(assignment.resolve(spec)?, self.utility, self.alpha)
+    }
+
+    /// The occupancy estimator of `spec`'s features with discount `gamma`.
+    pub fn occupancy(&self, spec: &EnvSpec, gamma: f64) -> Result<DiscountedOccupancy, CoreError> {
+        DiscountedOccupancy::new(spec.features.len(), gamma, self.occupancy)
+    }
+}
