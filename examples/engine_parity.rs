@@ -15,8 +15,8 @@
 //! Each source runs the same `--episodes` seeds (same object pose and goal) on every engine.
 
 use anyhow::{Context, Result, bail};
+use fmsr::artefacts::RunDir;
 use fmsr::experiment::{ExperimentConfig, MODEL_TIMESTEP};
-use fmsr::run::RunDir;
 use fmsr_core::metrics::GraspTrace;
 use fmsr_core::prelude::*;
 use fmsr_envs::shadow_hand::{HandPhysics, MujocoSettings, RapierSettings, ShadowHand, ShadowHandConfig};

@@ -51,6 +51,7 @@ use serde::{Deserialize, Serialize};
 use fmsr_core::method::Method;
 use fmsr_core::prelude::*;
 use fmsr_core::replay::ReplayConfig;
+use fmsr_core::sharing::SharingConfig;
 use fmsr_envs::shadow_hand::ShadowHandConfig;
 use fmsr_graph::Graph;
 use fmsr_nn::{
@@ -61,31 +62,8 @@ use fmsr_nn::{
 /// The timestep of the Shadow Hand model (s); one env step is `substeps` of them.
 pub const MODEL_TIMESTEP: f64 = 0.002;
 
-/// Which physics engine runs the Shadow Hand.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum Engine {
-    /// rapier3d, pure Rust (default).
-    #[default]
-    Rapier,
-    /// MuJoCo 3.17 (cargo feature `mujoco`).
-    Mujoco,
-}
-
-impl Engine {
-    /// The engine's name in configs and file names.
-    ///
-    /// ```
-    /// assert_eq!(fmsr::experiment::Engine::Mujoco.key(), "mujoco");
-    /// ```
-    #[must_use]
-    pub fn key(self) -> &'static str {
-        match self {
-            Engine::Rapier => "rapier",
-            Engine::Mujoco => "mujoco",
-        }
-    }
-}
+/// Which physics engine runs the Shadow Hand (its home is `fmsr_envs::shadow_hand::engine`).
+pub use fmsr_envs::shadow_hand::Engine;
 
 /// The communication graph of the agents, by agent name.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
@@ -366,9 +344,6 @@ pub enum ExperimentError {
         /// The parser's message, which names the key and line.
         message: String,
     },
-    /// The engine is not compiled in.
-    #[error("engine `mujoco` needs the cargo feature `mujoco` (see README: MuJoCo)")]
-    EngineUnavailable,
     /// Reading or writing a run file failed.
     #[error("{path}: {source}")]
     Io {
@@ -398,6 +373,30 @@ pub enum ExperimentError {
         dir: PathBuf,
         /// Who holds it, as the holder wrote it into the lock file.
         holder: String,
+    },
+    /// A directory given as a run or policy holds neither, or no trained run.
+    #[error("{path}: {reason}")]
+    NotARun {
+        /// The directory or file given.
+        path: PathBuf,
+        /// What it lacks.
+        reason: String,
+    },
+    /// A file's contents could not be encoded (JSON, TOML, the policy file's framing).
+    #[error("encoding {what}: {reason}")]
+    Encode {
+        /// The file being written (`eval.json`, `provenance.json`, ...).
+        what: &'static str,
+        /// The encoder's message.
+        reason: String,
+    },
+    /// A report's figure could not be plotted.
+    #[error("plotting {path}: {reason}")]
+    Plot {
+        /// The figure's file.
+        path: PathBuf,
+        /// The plotting library's message.
+        reason: String,
     },
     /// A frame or an image file could not be drawn or encoded.
     #[error("rendering {what}: {reason}")]
@@ -464,9 +463,9 @@ impl ExperimentConfig {
     /// The configuration as TOML, without the keys the method owns (so it reads back as the same config).
     ///
     /// # Errors
-    /// [`ExperimentError::Config`] if a value cannot be written as TOML.
+    /// [`ExperimentError::Encode`] if a value cannot be written as TOML.
     pub fn to_toml(&self) -> Result<String, ExperimentError> {
-        let err = |e: toml::ser::Error| ExperimentError::Config { key: "(all)".into(), reason: e.to_string() };
+        let err = |e: toml::ser::Error| ExperimentError::Encode { what: "config.toml", reason: e.to_string() };
         let mut table = toml::Table::try_from(self.clone().with_algorithm_section()).map_err(err)?;
         if let Some(toml::Value::Table(env)) = table.get_mut("env") {
             env.remove("reward");

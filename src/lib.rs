@@ -21,11 +21,12 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod artefacts;
 pub mod evaluate;
 pub mod experiment;
+mod font;
 #[cfg(feature = "mpi")]
 pub mod mpi;
-pub mod policy_file;
 pub mod provenance;
 pub mod render;
 pub mod report;

@@ -10,9 +10,9 @@ use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 
+use fmsr::artefacts::{POLICY_FILE_NAME, PolicyFile, RunDir, Source};
 use fmsr::experiment::{Engine, EpisodeSet, ExperimentConfig};
-use fmsr::policy_file::{POLICY_FILE_NAME, PolicyFile, Source};
-use fmsr::run::{self, RunDir};
+use fmsr::run;
 use fmsr_core::prelude::*;
 
 /// Finger-specific Multi-agent Shadow Reward with Information Sharing.
@@ -245,7 +245,7 @@ fn main() -> Result<()> {
             })?;
             let config = dir.load_config()?;
             let mut runs = vec![dir.root().to_path_buf()];
-            runs.extend(fmsr::policy_file::matching_policies(&args.pretrained, &config));
+            runs.extend(fmsr::artefacts::matching_policies(&args.pretrained, &config));
             report(&runs, &dir.root().join("report"))?;
             if runs.len() > 1 {
                 println!(
@@ -397,25 +397,11 @@ fn train_with(args: &TrainArgs, comm: Arc<dyn Communicator>) -> Result<RunDir> {
     }
     let mut progress = Progress::new(&config, done, rank == 0 && !args.quiet);
     let on_epoch = |s: &EpochStats| progress.epoch(s);
-    match config.engine {
-        Engine::Rapier => {
-            let envs = (0..config.trainer.worker_envs(comm.workers())?)
-                .map(|_| config.env_config().init())
-                .collect::<Result<Vec<_>, _>>()
-                .context("building the rapier Shadow Hand")?;
-            run::train_worker(&config, envs, &dir, resume, comm.clone(), on_epoch)?;
-        }
-        #[cfg(feature = "mujoco")]
-        Engine::Mujoco => {
-            let envs = (0..config.trainer.worker_envs(comm.workers())?)
-                .map(|_| config.env_config().init_mujoco(Default::default()))
-                .collect::<Result<Vec<_>, _>>()
-                .context("building the MuJoCo Shadow Hand")?;
-            run::train_worker(&config, envs, &dir, resume, comm.clone(), on_epoch)?;
-        }
-        #[cfg(not(feature = "mujoco"))]
-        Engine::Mujoco => return Err(fmsr::experiment::ExperimentError::EngineUnavailable.into()),
-    }
+    let envs = (0..config.trainer.worker_envs(comm.workers())?)
+        .map(|_| config.env_config().init_engine(config.engine))
+        .collect::<Result<Vec<_>, _>>()
+        .with_context(|| format!("building the {} Shadow Hand", config.engine.key()))?;
+    run::train_worker(&config, envs, &dir, resume, comm.clone(), on_epoch)?;
     progress.finish();
     Ok(dir)
 }
@@ -430,26 +416,18 @@ fn eval(args: &EvalArgs) -> Result<()> {
     let engine = args.engine.map_or(config.engine, Engine::from);
     let set = EpisodeSet::from(args.set);
     let dt = fmsr::experiment::MODEL_TIMESTEP * config.env.substeps as f64;
-    let summary = match engine {
-        Engine::Rapier => {
-            let env = config.env_config().init().context("building the rapier Shadow Hand")?;
-            fmsr::evaluate::evaluate_source_on(&config, env, engine, set, &source, dt)?
-        }
-        #[cfg(feature = "mujoco")]
-        Engine::Mujoco => {
-            let env = config.env_config().init_mujoco(Default::default()).context("building the MuJoCo Shadow Hand")?;
-            fmsr::evaluate::evaluate_source_on(&config, env, engine, set, &source, dt)?
-        }
-        #[cfg(not(feature = "mujoco"))]
-        Engine::Mujoco => return Err(fmsr::experiment::ExperimentError::EngineUnavailable.into()),
-    };
+    let env = config
+        .env_config()
+        .init_engine(engine)
+        .with_context(|| format!("building the {} Shadow Hand", engine.key()))?;
+    let summary = fmsr::evaluate::evaluate_source_on(&config, env, engine, set, &source, dt)?;
     println!("{}", summary.to_markdown());
     let out = match &source {
         Source::Run(dir) => Some(args.out.clone().unwrap_or_else(|| dir.eval_json_for(engine, config.engine, set))),
         Source::Policy { .. } => args.out.clone(),
     };
     if let Some(out) = out {
-        fmsr::evaluate::write_eval(&summary, &out)?;
+        fmsr::artefacts::write_eval(&summary, &out)?;
         println!("evaluation written to {}", out.display());
     }
     match &source {
@@ -474,7 +452,7 @@ fn eval(args: &EvalArgs) -> Result<()> {
 }
 
 /// Says whether a policy file's new evaluation repeats the one it carries.
-fn compare_with_carried(file: &PolicyFile, path: &std::path::Path, summary: &fmsr::evaluate::EvalReport) {
+fn compare_with_carried(file: &PolicyFile, path: &std::path::Path, summary: &fmsr::artefacts::EvalReport) {
     let engine = summary.engine.as_str();
     match file.eval_for(engine, summary.set) {
         Some(recorded) if recorded.same_results(summary) => println!(
@@ -528,7 +506,8 @@ fn export(args: &ExportArgs) -> Result<()> {
 }
 
 fn render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
-    use fmsr::render::{RenderTarget, record_source_episode};
+    use fmsr::artefacts::RenderTarget;
+    use fmsr::render::record_source_episode;
     let source = Source::open(&args.run)?;
     let config = source.config().context("reading the run's config.toml")?;
     let engine = args.engine.map_or(config.engine, Engine::from);
@@ -536,19 +515,11 @@ fn render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
         Some(out) => RenderTarget::from_path(out)?,
         None => source.render_target(args.episode, Some(engine))?,
     };
-    let film = match engine {
-        Engine::Rapier => {
-            let env = config.env_config().init().context("building the rapier Shadow Hand")?;
-            record_source_episode(&config, env, engine, &source, args.episode)?
-        }
-        #[cfg(feature = "mujoco")]
-        Engine::Mujoco => {
-            let env = config.env_config().init_mujoco(Default::default()).context("building the MuJoCo Shadow Hand")?;
-            record_source_episode(&config, env, engine, &source, args.episode)?
-        }
-        #[cfg(not(feature = "mujoco"))]
-        Engine::Mujoco => return Err(fmsr::experiment::ExperimentError::EngineUnavailable.into()),
-    };
+    let env = config
+        .env_config()
+        .init_engine(engine)
+        .with_context(|| format!("building the {} Shadow Hand", engine.key()))?;
+    let film = record_source_episode(&config, env, engine, &source, args.episode)?;
     let scene = fmsr::render::load_scene(&config)?;
     let camera = fmsr::envs::shadow_hand::render::Camera::gym(args.width, args.height);
     Ok(fmsr::render::write_film(&scene, &film, &camera, &target)?)

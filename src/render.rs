@@ -18,10 +18,8 @@ use fmsr_core::prelude::*;
 use fmsr_envs::shadow_hand::render::{Camera, HandScene, HandView, Image};
 use fmsr_envs::shadow_hand::{HandPhysics, ShadowHand, fetch_hand_assets};
 
-use crate::evaluate::classify;
+use crate::artefacts::{RenderTarget, RunDir, Source, classify};
 use crate::experiment::{Engine, ExperimentConfig, ExperimentError};
-use crate::policy_file::Source;
-use crate::run::RunDir;
 
 /// Frames are drawn this many times larger, then averaged down (anti-aliasing).
 const SUPERSAMPLE: usize = 2;
@@ -144,7 +142,7 @@ pub fn draw_film(scene: &HandScene, film: &EpisodeFilm, camera: &Camera) -> Resu
 
 /// Writes the step lines at the top and bottom and, on the last frame, the verdict.
 fn overlay(image: &mut Image, lines: &[String; 2], verdict: Option<&str>) -> Result<(), ExperimentError> {
-    crate::report::register_font();
+    crate::font::register_font();
     let (w, h) = (image.width as u32, image.height as u32);
     let err = |e: DrawingAreaErrorKind<_>| ExperimentError::Render { what: "overlay".into(), reason: e.to_string() };
     let root = BitMapBackend::with_buffer(&mut image.rgb, (w, h)).into_drawing_area();
@@ -169,10 +167,6 @@ pub fn frame_strip(frames: &[Image]) -> Image {
         n => [0, n / 2, n - 1].iter().map(|&i| &frames[i]).collect(),
     };
     Image::hstack(&picks, [255, 255, 255])
-}
-
-fn render_err(path: &Path) -> impl Fn(String) -> ExperimentError + '_ {
-    move |reason| ExperimentError::Render { what: path.display().to_string(), reason }
 }
 
 /// `image` as PNG bytes.
@@ -213,49 +207,6 @@ pub fn gif_bytes(frames: &[Image], delay_cs: u16) -> Result<Vec<u8>, ExperimentE
         }
     }
     Ok(bytes)
-}
-
-/// Where `fmsr render` writes.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum RenderTarget {
-    /// An animated GIF (and its frame strip beside it, `<stem>-strip.png`).
-    Gif(PathBuf),
-    /// A directory of `frame-000.png`, ...
-    Frames(PathBuf),
-}
-
-impl RenderTarget {
-    /// A `.gif` path is a GIF, a path without extension a directory of PNG frames.
-    ///
-    /// # Errors
-    /// [`ExperimentError::Render`] for other extensions (`.mp4` is not written:
-    /// no well-kept pure-Rust encoder; make one from the PNG frames with ffmpeg).
-    pub fn from_path(path: &Path) -> Result<Self, ExperimentError> {
-        match path.extension().and_then(|e| e.to_str()) {
-            Some("gif") => Ok(Self::Gif(path.to_path_buf())),
-            None => Ok(Self::Frames(path.to_path_buf())),
-            Some(other) => Err(render_err(path)(format!(
-                "`.{other}` is not an output format: give a `.gif` file or a directory for PNG frames"
-            ))),
-        }
-    }
-
-    /// The default target of a run: `RUN/render/episode-<K>-<engine>.gif`.
-    #[must_use]
-    pub fn default_for(dir: &RunDir, episode: usize, engine: Engine) -> Self {
-        Self::Gif(dir.root().join("render").join(format!("episode-{episode}-{}.gif", engine.key())))
-    }
-
-    /// The frame strip written beside a GIF.
-    #[must_use]
-    pub fn strip_path(&self) -> Option<PathBuf> {
-        match self {
-            Self::Gif(p) => Some(
-                p.with_file_name(format!("{}-strip.png", p.file_stem().and_then(|s| s.to_str()).unwrap_or("episode"))),
-            ),
-            Self::Frames(_) => None,
-        }
-    }
 }
 
 /// Draws `film` and writes it to `target`; returns the files written.

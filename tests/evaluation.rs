@@ -13,7 +13,7 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::cli::{FMSR, fmsr, text, tiny_config, trained_tiny_run};
-use fmsr::evaluate::{EvalReport, SuccessRule, classify};
+use fmsr::artefacts::{EvalReport, SuccessRule, classify};
 use fmsr::experiment::EpisodeSet;
 
 fn read_eval(path: &Path) -> EvalReport {
@@ -84,14 +84,14 @@ fn a_policy_file_takes_a_new_evaluation_in_place_of_its_old_one() {
     assert!(fmsr(&["export", run.to_str().unwrap(), "--out", file_s]).status.success());
     let out = fmsr(&["eval", file_s, "--episodes", "3", "--record"]);
     assert!(out.status.success(), "{}", text(&out));
-    let policy = fmsr::policy_file::PolicyFile::read(&file).unwrap();
+    let policy = fmsr::artefacts::PolicyFile::read(&file).unwrap();
     assert_eq!(policy.evals.len(), 1, "the test evaluation was replaced, not added");
     assert_eq!(policy.eval_on(fmsr::experiment::Engine::Rapier).unwrap().episodes, 3);
     let out = fmsr(&["eval", file_s, "--episodes", "3"]);
     assert!(text(&out).contains("the same results as the evaluation the file carries"), "{}", text(&out));
     let out = fmsr(&["eval", file_s, "--episodes", "2", "--set", "validation", "--record"]);
     assert!(out.status.success(), "{}", text(&out));
-    assert_eq!(fmsr::policy_file::PolicyFile::read(&file).unwrap().evals.len(), 2);
+    assert_eq!(fmsr::artefacts::PolicyFile::read(&file).unwrap().evals.len(), 2);
     // A run's evaluation goes to its directory: --record there is a mistake.
     let out = fmsr(&["eval", run.to_str().unwrap(), "--record"]);
     assert!(!out.status.success() && text(&out).contains("--record writes into a policy file"), "{}", text(&out));
@@ -142,7 +142,7 @@ fn a_second_writer_is_refused_while_readers_read_on() {
         let file = tmp.path().join(format!("during-{i}.fmsr"));
         let out = fmsr(&["export", run_s, "--out", file.to_str().unwrap()]);
         assert!(out.status.success(), "{}", text(&out));
-        let exported = fmsr::policy_file::PolicyFile::read(&file).unwrap();
+        let exported = fmsr::artefacts::PolicyFile::read(&file).unwrap();
         assert_eq!(exported.metrics.len(), exported.epochs, "an export mixed two epochs");
         let out = fmsr(&["eval", run_s, "--episodes", "1", "--out", tmp.path().join("e.json").to_str().unwrap()]);
         assert!(out.status.success(), "{}", text(&out));

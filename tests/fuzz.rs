@@ -51,7 +51,7 @@ fn policy_file() -> &'static Vec<u8> {
     FILE.get_or_init(|| {
         let mut t = common::team_reach_trainer(Method::DenseFmsrIs, 1, 1);
         t.train(|_, _| Ok(())).unwrap();
-        let file = fmsr::policy_file::PolicyFile {
+        let file = fmsr::artefacts::PolicyFile {
             config: ExperimentConfig::load(Path::new("configs/block_dense_fmsr_is_quick.toml")).unwrap(),
             provenance: fmsr::provenance::Provenance::of_this_process(Path::new(".")),
             metrics: t.history().to_vec(),
@@ -61,7 +61,7 @@ fn policy_file() -> &'static Vec<u8> {
             policy: t.algorithm().save_policy().unwrap(),
         };
         let bytes = file.to_bytes().unwrap();
-        let back = fmsr::policy_file::PolicyFile::from_bytes(&bytes, Path::new("x.fmsr")).unwrap();
+        let back = fmsr::artefacts::PolicyFile::from_bytes(&bytes, Path::new("x.fmsr")).unwrap();
         assert_eq!(back, file);
         bytes
     })
@@ -133,7 +133,7 @@ proptest! {
         noise in proptest::collection::vec(any::<u8>(), 0..64),
     ) {
         let good = policy_file();
-        let read = |bytes: &[u8]| fmsr::policy_file::PolicyFile::from_bytes(bytes, Path::new("x.fmsr"));
+        let read = |bytes: &[u8]| fmsr::artefacts::PolicyFile::from_bytes(bytes, Path::new("x.fmsr"));
         let damaged = corrupt(good, &flips, cut);
         prop_assume!(&damaged != good);
         for bytes in [damaged, [&good[..20], &noise[..]].concat(), noise.clone()] {

@@ -9,6 +9,14 @@ pub enum EnvError {
     /// A core data type was rejected (e.g. a joint action of the wrong length).
     #[error(transparent)]
     Core(#[from] fmsr_core::CoreError),
+    /// The engine is not compiled into this build.
+    #[error("engine `{engine}` needs the cargo feature `{feature}` (see README: MuJoCo)")]
+    EngineUnavailable {
+        /// The engine's name.
+        engine: &'static str,
+        /// The cargo feature that compiles it in.
+        feature: &'static str,
+    },
     /// `step` was called before `reset`.
     #[error("step called before reset")]
     NotReset,

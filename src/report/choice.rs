@@ -12,7 +12,7 @@ use std::fmt::Write as _;
 
 use fmsr_core::interval::Interval;
 
-use crate::evaluate::EvalReport;
+use crate::artefacts::EvalReport;
 
 use super::RunRecord;
 

@@ -20,10 +20,8 @@
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::Once;
 
 use plotters::prelude::*;
-use plotters::style::FontStyle;
 
 use fmsr_core::method::Method;
 use fmsr_core::persist::write_atomic;
@@ -31,10 +29,8 @@ use fmsr_core::trainer::EpochStats;
 
 pub mod choice;
 
-use crate::evaluate::EvalReport;
+use crate::artefacts::{EvalReport, PolicyFile, RenderTarget, RunDir, Source, read_eval};
 use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError};
-use crate::policy_file::{PolicyFile, Source};
-use crate::run::RunDir;
 
 /// One run as the report sees it.
 #[derive(Debug, Clone)]
@@ -78,7 +74,7 @@ impl RunRecord {
             .filter_map(Result::transpose)
             .collect::<Result<_, _>>()?;
         let label = config.label();
-        let target = crate::render::RenderTarget::default_for(&run, 0, config.engine);
+        let target = RenderTarget::default_for(&run, 0, config.engine);
         Ok(Self::assemble(dir, &target, config, metrics, [eval, validation], cross_evals, label))
     }
 
@@ -108,7 +104,7 @@ impl RunRecord {
     /// A record of `dir` whose rendering of test episode 0 (if drawn) is `target`.
     fn assemble(
         dir: &Path,
-        target: &crate::render::RenderTarget,
+        target: &RenderTarget,
         config: ExperimentConfig,
         metrics: Vec<EpochStats>,
         [mut eval, mut validation]: [Option<EvalReport>; 2],
@@ -121,9 +117,7 @@ impl RunRecord {
             e.method.clone_from(&label);
         }
         let rendering = match (target, target.strip_path()) {
-            (crate::render::RenderTarget::Gif(gif), Some(strip)) if gif.exists() && strip.exists() => {
-                Some((gif.clone(), strip))
-            }
+            (RenderTarget::Gif(gif), Some(strip)) if gif.exists() && strip.exists() => Some((gif.clone(), strip)),
             _ => None,
         };
         Self { dir: dir.to_path_buf(), config, metrics, eval, validation, cross_evals, rendering, label }
@@ -137,17 +131,6 @@ impl RunRecord {
     fn task(&self) -> String {
         format!("{:?}", self.config.env.object).to_lowercase()
     }
-}
-
-/// The evaluation in `path`, if the file exists.
-pub(crate) fn read_eval(path: &Path) -> Result<Option<EvalReport>, ExperimentError> {
-    if !path.exists() {
-        return Ok(None);
-    }
-    let bytes = std::fs::read(path).map_err(|source| ExperimentError::Io { path: path.into(), source })?;
-    serde_json::from_slice(&bytes)
-        .map(Some)
-        .map_err(|e| ExperimentError::Parse { path: path.into(), message: e.to_string() })
 }
 
 /// The cross-engine table: every run evaluated on another engine, beside its
@@ -233,18 +216,8 @@ fn method_color(m: Method) -> RGBColor {
     }
 }
 
-static FONT: Once = Once::new();
-
-pub(crate) fn register_font() {
-    FONT.call_once(|| {
-        // The bytes are embedded by the `dejavu` crate, so no system font is needed.
-        plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
-            .unwrap_or_else(|_| unreachable!("the embedded DejaVu Sans is a valid font"));
-    });
-}
-
 fn plot_err<E: std::fmt::Display>(path: &Path) -> impl Fn(E) -> ExperimentError + '_ {
-    move |e| ExperimentError::Config { key: "report".into(), reason: format!("plotting {}: {e}", path.display()) }
+    move |e| ExperimentError::Plot { path: path.to_path_buf(), reason: e.to_string() }
 }
 
 /// The distinct configurations among `runs`, in the paper's method order.
@@ -400,7 +373,7 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
     if runs.is_empty() {
         return Err(ExperimentError::Config { key: "runs".into(), reason: "no run to report on".into() });
     }
-    register_font();
+    crate::font::register_font();
     std::fs::create_dir_all(out).map_err(|source| ExperimentError::Io { path: out.to_path_buf(), source })?;
     remove_previous_report(out)?;
     let mut by_task: BTreeMap<String, Vec<&RunRecord>> = BTreeMap::new();
@@ -425,7 +398,7 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
             if let Some((r, e, how)) = choice::choose(&candidates) {
                 table1.push_str(&e.table1_row());
                 table2.push_str(&e.table2_row());
-                old_rule |= e.success_rule == crate::evaluate::SuccessRule::Reached;
+                old_rule |= e.success_rule == crate::artefacts::SuccessRule::Reached;
                 let _ = writeln!(chosen_md, "- {task}, {}: {} ({})", configuration.1, r.dir.display(), how.describe());
                 chosen.push((r, e, how));
             }

@@ -28,6 +28,7 @@
 //!   (gymnasium's semantics); the flag is in [`StepInfo::dropped`].
 
 pub mod assets;
+mod engine;
 pub mod model;
 #[cfg(feature = "mujoco")]
 pub mod mujoco;
@@ -48,6 +49,7 @@ use fmsr_core::spec::{AgentSpec, EnvSpec, JointAction, Observation, RewardType, 
 use fmsr_core::{ContactReadout, Env, env::ObjectContacts};
 
 pub use self::assets::{HandAssets, fetch_hand_assets};
+pub use self::engine::{Engine, EnginePhysics};
 pub use self::model::HandObject;
 use self::model::{ACTUATORS, AGENTS, HAND_JOINTS, NUM_TOUCH, PREFIX};
 #[cfg(feature = "mujoco")]
@@ -223,11 +225,20 @@ impl ShadowHandConfig {
     /// assert_eq!(env.spec().agents.len(), 6);
     /// ```
     pub fn init(self) -> Result<ShadowHand<RapierHand>, EnvError> {
+        let physics = self.rapier_physics()?;
+        self.init_with(physics)
+    }
+
+    /// The rapier physics of this config's object and settings, fetching the
+    /// model into the cache on first use.
+    ///
+    /// # Errors
+    /// An invalid config, a model that cannot be fetched or loaded.
+    pub fn rapier_physics(&self) -> Result<RapierHand, EnvError> {
         self.check()?;
         let assets = fetch_hand_assets(self.assets_dir.as_deref())?;
         let model = load_rapier_model(&assets, self.object)?;
-        let physics = RapierHand::new(model, self.rapier)?;
-        self.init_with(physics)
+        RapierHand::new(model, self.rapier)
     }
 
     /// Builds the task on any physics backend.

@@ -359,10 +359,19 @@ impl ShadowHandConfig {
     /// assert_eq!(env.reset(0).unwrap().global.len(), 153);
     /// ```
     pub fn init_mujoco(self, settings: MujocoSettings) -> Result<ShadowHand<MujocoHand>, EnvError> {
+        let physics = self.mujoco_physics(settings)?;
+        self.init_with(physics)
+    }
+
+    /// The MuJoCo physics of this config's object, fetching the model into the
+    /// cache on first use.
+    ///
+    /// # Errors
+    /// A model that cannot be fetched or loaded.
+    pub fn mujoco_physics(&self, settings: MujocoSettings) -> Result<MujocoHand, EnvError> {
         let assets = fetch_hand_assets(self.assets_dir.as_deref())?;
         let model = load_mujoco_model(&assets, self.object)?;
-        let physics = MujocoHand::new(model, settings)?;
-        self.init_with(physics)
+        MujocoHand::new(model, settings)
     }
 }
 

@@ -28,11 +28,11 @@ use fmsr_core::persist::{self, FormatError};
 use fmsr_core::prelude::*;
 use fmsr_core::trainer::read_checkpoint_contents;
 
-use crate::evaluate::EvalReport;
+use super::eval_file::{EvalReport, read_eval};
+use super::render_target::RenderTarget;
+use super::run_dir::RunDir;
 use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError};
 use crate::provenance::Provenance;
-use crate::render::RenderTarget;
-use crate::run::RunDir;
 
 /// The magic number of a policy file.
 const MAGIC: &[u8; 8] = b"FMSRPLCY";
@@ -81,13 +81,13 @@ impl PolicyFile {
     /// configuration, provenance, metrics and evaluations.
     ///
     /// # Errors
-    /// The errors of reading the run's files; [`ExperimentError::Config`] when
+    /// The errors of reading the run's files; [`ExperimentError::NotARun`] when
     /// the run has no checkpoint.
     pub fn from_run(dir: &RunDir) -> Result<Self, ExperimentError> {
         if !dir.checkpoint().exists() {
-            return Err(ExperimentError::Config {
-                key: "run".into(),
-                reason: format!("{} holds no trained run (no checkpoint.bin)", dir.root().display()),
+            return Err(ExperimentError::NotARun {
+                path: dir.root().to_path_buf(),
+                reason: "holds no trained run (no checkpoint.bin)".into(),
             });
         }
         let config = dir.load_config()?;
@@ -105,7 +105,7 @@ impl PolicyFile {
         let mut evals = Vec::new();
         for set in [EpisodeSet::Test, EpisodeSet::Validation] {
             for engine in [config.engine, other_engine(config.engine)] {
-                if let Some(e) = crate::report::read_eval(&dir.eval_json_for(engine, config.engine, set))? {
+                if let Some(e) = read_eval(&dir.eval_json_for(engine, config.engine, set))? {
                     evals.push(e);
                 }
             }
@@ -146,7 +146,7 @@ impl PolicyFile {
     /// The file's bytes.
     ///
     /// # Errors
-    /// [`ExperimentError::Config`] when a part cannot be encoded.
+    /// [`ExperimentError::Encode`] when a part cannot be encoded.
     pub fn to_bytes(&self) -> Result<Vec<u8>, ExperimentError> {
         let body = Body {
             config: self.config.to_toml()?,
@@ -158,7 +158,7 @@ impl PolicyFile {
             policy: self.policy.clone(),
         };
         persist::encode(MAGIC, POLICY_FILE_VERSION, &body)
-            .map_err(|e| ExperimentError::Config { key: "policy file".into(), reason: e.to_string() })
+            .map_err(|e| ExperimentError::Encode { what: "the policy file", reason: e.to_string() })
     }
 
     /// Reads a file's bytes; `path` names it in errors.
@@ -250,8 +250,7 @@ fn other_engine(engine: Engine) -> Engine {
 
 /// One part of the body as JSON text.
 fn to_json<T: Serialize>(value: &T) -> Result<String, ExperimentError> {
-    serde_json::to_string(value)
-        .map_err(|e| ExperimentError::Config { key: "policy file".into(), reason: e.to_string() })
+    serde_json::to_string(value).map_err(|e| ExperimentError::Encode { what: "the policy file", reason: e.to_string() })
 }
 
 /// What `fmsr eval`, `render` and `report` read: a run directory or a policy file.
@@ -273,7 +272,7 @@ impl Source {
     /// holds `policy.fmsr`, or a policy file.
     ///
     /// # Errors
-    /// [`ExperimentError::Config`] for a directory that holds neither;
+    /// [`ExperimentError::NotARun`] for a directory that holds neither;
     /// the errors of [`PolicyFile::read`].
     pub fn open(path: &Path) -> Result<Self, ExperimentError> {
         if path.is_dir() {
@@ -283,12 +282,9 @@ impl Source {
             }
             let file = path.join(POLICY_FILE_NAME);
             if !file.exists() {
-                return Err(ExperimentError::Config {
-                    key: "run".into(),
-                    reason: format!(
-                        "{} holds neither a run (config.toml) nor a policy file ({POLICY_FILE_NAME})",
-                        path.display()
-                    ),
+                return Err(ExperimentError::NotARun {
+                    path: path.to_path_buf(),
+                    reason: format!("holds neither a run (config.toml) nor a policy file ({POLICY_FILE_NAME})"),
                 });
             }
             return Ok(Self::Policy { file: Box::new(PolicyFile::read(&file)?), path: file });

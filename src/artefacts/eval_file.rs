@@ -1,0 +1,344 @@
+//! An evaluation's file (`eval.json`, [`EvalReport`]): the outcome of every
+//! test episode ([`classify`]: success is turned and held), the paper's
+//! measures and their rows of Tables I and II. `fmsr eval` writes it
+//! ([`crate::evaluate`]), reports and policy files read it.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use fmsr_core::interval::Interval;
+use fmsr_core::metrics::{
+    EpisodeOutcome, EpisodeSummary, FailureCounts, FailureRow, FailureType, MeanStd, StabilityRow,
+};
+
+use crate::experiment::{EpisodeSet, ExperimentError};
+
+/// The per-step series of one test episode (the paper's Fig. 4).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct EpisodeTrace {
+    /// The episode's seed.
+    pub seed: u64,
+    /// Active touch sensors per step.
+    pub contacts: Vec<usize>,
+    /// `Q_MSV` per step.
+    pub q_msv: Vec<f64>,
+    /// `Q_VEW` per step.
+    pub q_vew: Vec<f64>,
+    /// `|Q'_MSV|` per step difference.
+    pub dq_msv: Vec<f64>,
+    /// `|Q'_VEW|` per step difference.
+    pub dq_vew: Vec<f64>,
+    /// `Q_DCC` per step (m; `None` without contacts).
+    pub q_dcc: Vec<Option<f64>>,
+    /// Goal distance per step (rad).
+    pub goal_distance: Vec<f32>,
+}
+
+/// What an evaluation counted as a success.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SuccessRule {
+    /// Final rotation error under the threshold, whether or not the object
+    /// was dropped: evaluations written before 2026-11-25 (commit after `bc9bb0c`).
+    Reached,
+    /// Final rotation error under the threshold and never dropped.
+    ReachedAndHeld,
+}
+
+impl SuccessRule {
+    /// The rule of files that do not name one: the old one.
+    fn legacy() -> Self {
+        Self::Reached
+    }
+
+    /// In words, for tables.
+    #[must_use]
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Reached => "old definition: drops counted as successes when the final angle was within the threshold",
+            Self::ReachedAndHeld => "turned and held: final angle within the threshold, never dropped",
+        }
+    }
+}
+
+/// One test episode of an evaluation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EpisodeRecord {
+    /// The episode's seed.
+    pub seed: u64,
+    /// Rotation error after the reset (rad).
+    pub initial_error: f32,
+    /// Rotation error at the last step (rad).
+    pub final_error: f32,
+    /// Whether the object was dropped at any step.
+    pub dropped: bool,
+    /// The first step (from 0) at which it was dropped.
+    pub drop_step: Option<usize>,
+    /// Success, drop or incomplete ([`classify`]).
+    pub outcome: EpisodeOutcome,
+    /// Active touch sensors summed over the steps (Table I's "Total Contact").
+    pub total_contacts: usize,
+}
+
+/// The evaluation of one run, as written to `eval.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EvalReport {
+    /// The run's name.
+    pub name: String,
+    /// The configuration's label, e.g. `Dense+FMSR+IS`.
+    pub method: String,
+    /// The object (`block` or `egg`).
+    pub task: String,
+    /// The engine of this evaluation.
+    pub engine: String,
+    /// The engine the policy was trained on (absent in files of older
+    /// versions, which evaluated on the training engine only).
+    #[serde(default)]
+    pub trained_on: Option<String>,
+    /// Epochs the policy was trained for.
+    pub epochs: usize,
+    /// Test episodes.
+    pub episodes: usize,
+    /// Which episodes were played (absent in older files: the test set).
+    #[serde(default)]
+    pub set: EpisodeSet,
+    /// The success threshold (rad).
+    pub threshold: f32,
+    /// What counted as a success (absent in older files: [`SuccessRule::Reached`]).
+    #[serde(default = "SuccessRule::legacy")]
+    pub success_rule: SuccessRule,
+    /// Fraction of episodes that succeeded.
+    pub success_rate: f64,
+    /// Table I's stability measures over the test episodes.
+    pub stability: Option<StabilityRow>,
+    /// Outcome counts.
+    pub outcomes: FailureCounts,
+    /// Table II's columns.
+    pub failures: FailureRow,
+    /// Per-episode grasp measures.
+    pub episode_summaries: Vec<EpisodeSummary>,
+    /// Every episode: seed, errors, drop, outcome, contacts (absent in older files).
+    #[serde(default)]
+    pub records: Vec<EpisodeRecord>,
+    /// Goal distance of each episode after the reset (rad): files of older
+    /// versions only, whose episodes have no [`EpisodeRecord`] (their
+    /// `final_distances` are not read).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub initial_distances: Vec<f32>,
+    /// The per-step series of the first test episode.
+    pub trace: EpisodeTrace,
+    /// Wall time of the evaluation (s).
+    pub seconds: f64,
+}
+
+fn cell(x: Option<MeanStd>, scale: f64, precision: usize) -> String {
+    x.map_or_else(|| "n/a".into(), |m| format!("{:.*}±{:.*}", precision, m.mean * scale, precision, m.std * scale))
+}
+
+impl EvalReport {
+    /// Table I's header, in Markdown.
+    #[must_use]
+    pub fn table1_header() -> String {
+        "| Task | Configuration | Success Rate | Total Contact | Q_MSV | Q_VEW | \\|Q'_MSV\\| | \\|Q'_VEW\\| | Q_DCC (1e-3 m) |\n\
+         |---|---|---|---|---|---|---|---|---|\n"
+            .into()
+    }
+
+    /// This run's row of Table I, in Markdown.
+    #[must_use]
+    pub fn table1_row(&self) -> String {
+        format!(
+            "| {} | {} | {} | {} |\n",
+            self.task,
+            self.method,
+            self.success_cell(),
+            self.stability_cells().join(" | ")
+        )
+    }
+
+    /// Table I's stability cells: contacts, Q_MSV, Q_VEW, |Q'_MSV|, |Q'_VEW|, Q_DCC.
+    fn stability_cells(&self) -> [String; 6] {
+        let s = self.stability.as_ref();
+        [
+            cell(s.map(|s| s.total_contacts), 1.0, 0),
+            cell(s.map(|s| s.q_msv), 1.0, 3),
+            cell(s.map(|s| s.q_vew), 1.0, 4),
+            cell(s.and_then(|s| s.dq_msv), 1.0, 3),
+            cell(s.and_then(|s| s.dq_vew), 1.0, 4),
+            cell(s.and_then(|s| s.q_dcc), 1e3, 1),
+        ]
+    }
+
+    /// The cells of this evaluation in the report's cross-engine table, from
+    /// the task on; `trained_on` names the training engine.
+    #[must_use]
+    pub fn cross_engine_cells(&self, trained_on: &str) -> String {
+        let drop = self.failures.drop_percent.map_or_else(|| "n/a".into(), |p| format!("{p:.1}%"));
+        format!(
+            "{} | {} | {} | {} | {} | {} | {drop}",
+            self.task,
+            self.method,
+            self.trained_on.as_deref().unwrap_or(trained_on),
+            self.engine,
+            self.success_cell(),
+            self.stability_cells().join(" | ")
+        )
+    }
+
+    /// Table II's header, in Markdown.
+    #[must_use]
+    pub fn table2_header() -> String {
+        "| Task | Configuration | Trials | # of F | Incom | Incom% | Drop | Drop% |\n|---|---|---|---|---|---|---|---|\n"
+            .into()
+    }
+
+    /// This run's row of Table II, in Markdown.
+    #[must_use]
+    pub fn table2_row(&self) -> String {
+        let pct = |p: Option<f64>| p.map_or_else(|| "n/a".into(), |p| format!("{p:.1}%"));
+        let f = &self.failures;
+        format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            self.task,
+            self.method,
+            self.episodes,
+            f.failures,
+            f.incomplete,
+            pct(f.incomplete_percent),
+            f.drop,
+            pct(f.drop_percent)
+        )
+    }
+
+    /// The success rate with its 95 % Wilson interval.
+    #[must_use]
+    pub fn success_interval(&self) -> Option<Interval> {
+        Interval::wilson(self.outcomes.successes, self.outcomes.episodes)
+    }
+
+    /// The success cell of the tables: `32% [24, 42]`, with `*` for the old
+    /// definition ([`SuccessRule::Reached`]).
+    #[must_use]
+    pub fn success_cell(&self) -> String {
+        let mark = if self.success_rule == SuccessRule::Reached { "*" } else { "" };
+        self.success_interval().map_or_else(|| "n/a".into(), |i| format!("{}{mark}", i.percent()))
+    }
+
+    /// Each episode's rotation error after the reset (rad): from the records,
+    /// or the list of older files.
+    #[must_use]
+    pub fn initial_errors(&self) -> Vec<f32> {
+        if self.records.is_empty() {
+            self.initial_distances.clone()
+        } else {
+            self.records.iter().map(|r| r.initial_error).collect()
+        }
+    }
+
+    /// The chance level of these episodes, with its 95 % interval: the success
+    /// of a policy that holds the object still without dropping it, i.e. the
+    /// fraction of episodes that start within the threshold (`None` for files
+    /// of older versions). A policy that never turns the object does no better
+    /// (it may drop it). With the goal and the start drawn uniformly about Z,
+    /// it tends to `threshold / pi` (12.7 % at 0.4 rad).
+    #[must_use]
+    pub fn still_success(&self) -> Option<Interval> {
+        let initial = self.initial_errors();
+        Interval::wilson(initial.iter().filter(|&&d| d < self.threshold).count(), initial.len())
+    }
+
+    /// Success against chance, in words, with both intervals.
+    #[must_use]
+    pub fn against_chance(&self) -> String {
+        let what = format!("{} success {}", self.set.key(), self.success_cell());
+        match self.still_success() {
+            Some(still) => format!(
+                "{what} against {} for a policy that holds the object still (the episodes that start within {} rad); 95 % Wilson intervals",
+                still.percent(),
+                self.threshold
+            ),
+            None => format!("{what} (chance level not recorded)"),
+        }
+    }
+
+    /// Whether `other` has the same results: everything but the wall time
+    /// (every episode's outcome, final angle and grasp measures, the trace).
+    #[must_use]
+    pub fn same_results(&self, other: &EvalReport) -> bool {
+        *self == EvalReport { seconds: self.seconds, ..other.clone() }
+    }
+
+    /// Both tables for this run.
+    #[must_use]
+    pub fn to_markdown(&self) -> String {
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "{} ({}, {} epochs, {} {} episodes at {} rad, {:.0} s)\n",
+            self.name,
+            self.engine,
+            self.epochs,
+            self.episodes,
+            self.set.key(),
+            self.threshold,
+            self.seconds
+        );
+        out.push_str(&Self::table1_header());
+        out.push_str(&self.table1_row());
+        out.push('\n');
+        out.push_str(&Self::table2_header());
+        out.push_str(&self.table2_row());
+        let _ = writeln!(out, "\n{}: {}.", self.name, self.against_chance());
+        if self.success_rule == SuccessRule::Reached {
+            let _ = writeln!(out, "* {}.", self.success_rule.describe());
+        }
+        out
+    }
+}
+
+/// The outcome of a test episode (Table II): a drop if the object was dropped
+/// at any step, else success when the final goal distance is below
+/// `threshold`, else incomplete. An object turned into the goal but dropped
+/// on the way is a drop: success is an object turned and held.
+///
+/// ```
+/// use fmsr::core::metrics::{EpisodeOutcome, FailureType};
+/// use fmsr::artefacts::classify;
+/// assert_eq!(classify(0.1, 0.4, false), EpisodeOutcome::Success);
+/// assert_eq!(classify(0.1, 0.4, true), EpisodeOutcome::Failure(FailureType::Drop));
+/// assert_eq!(classify(1.0, 0.4, true), EpisodeOutcome::Failure(FailureType::Drop));
+/// assert_eq!(classify(1.0, 0.4, false), EpisodeOutcome::Failure(FailureType::Incomplete));
+/// ```
+#[must_use]
+pub fn classify(final_distance: f32, threshold: f32, dropped: bool) -> EpisodeOutcome {
+    if dropped {
+        EpisodeOutcome::Failure(FailureType::Drop)
+    } else if final_distance < threshold {
+        EpisodeOutcome::Success
+    } else {
+        EpisodeOutcome::Failure(FailureType::Incomplete)
+    }
+}
+
+/// Writes an evaluation as JSON, atomically.
+///
+/// # Errors
+/// I/O errors.
+pub fn write_eval(report: &EvalReport, path: &std::path::Path) -> Result<(), ExperimentError> {
+    let json = serde_json::to_vec_pretty(report)
+        .map_err(|e| ExperimentError::Encode { what: "eval.json", reason: e.to_string() })?;
+    Ok(fmsr_core::persist::write_atomic(path, &json)?)
+}
+
+/// The evaluation in `path`, if the file exists.
+pub fn read_eval(path: &Path) -> Result<Option<EvalReport>, ExperimentError> {
+    if !path.exists() {
+        return Ok(None);
+    }
+    let bytes = std::fs::read(path).map_err(|source| ExperimentError::Io { path: path.into(), source })?;
+    serde_json::from_slice(&bytes)
+        .map(Some)
+        .map_err(|e| ExperimentError::Parse { path: path.into(), message: e.to_string() })
+}
