@@ -19,6 +19,17 @@
 //! let sharing = SharingConfig::default().build(&graph).unwrap().unwrap();
 //! assert_eq!(sharing.mixing.n(), 6);
 //! ```
+//!
+//! ## Your own algorithm
+//!
+//! The trainer knows algorithms only through two traits of `fmsr-core`:
+//! [`core::Policy`] (act for all agents) and [`core::Algorithm`] (store
+//! episodes, update with the trainer's [`core::RewardModel`], save and
+//! restore). `examples/custom_algorithm.rs` writes independent DDPG (each
+//! critic sees only its own agent's observation and action), which this crate
+//! does not ship, in one file against those traits and fmsr-nn's public
+//! networks, and trains it with [`core::trainer::Trainer`] like MADDPG;
+//! `tests/custom_algorithm.rs` checks that it learns TeamReach.
 #![warn(missing_docs)]
 
 pub mod artefacts;

@@ -46,7 +46,9 @@ pub struct UpdateStats {
 
 /// A multi-agent learning algorithm: a [`Policy`] that also learns.
 ///
-/// Implemented by `fmsr-nn`'s MADDPG, MATD3 and MASAC, or by your own.
+/// Implemented by `fmsr-nn`'s MADDPG, MATD3 and MASAC, or by your own: the
+/// `fmsr` crate's `examples/custom_algorithm.rs` implements independent DDPG
+/// in one file against this trait alone.
 pub trait Algorithm: Policy {
     /// Stores one collected episode in the algorithm's own storage.
     fn store(&mut self, episode: &Episode) -> Result<(), Self::Error>;
