@@ -222,6 +222,18 @@ status() {
   done
 }
 
+# A record in docs/ of an earlier run of the same name (its home was lost and
+# the run started again, so keeper.env differs) would pass its snapshots'
+# evaluations off as the new run's: move it to docs/results/paper_budget_lost/.
+archive_earlier_record() {
+  local dir=$1 out=$2 was
+  [ -f "$out/keeper.env" ] && ! cmp -s "$out/keeper.env" "$dir/keeper.env" || return 0
+  was=$(sed -n 's/^STARTED=//p' "$out/keeper.env" | tr -d ':')
+  mkdir -p "$repo/docs/results/paper_budget_lost"
+  mv "$out" "$repo/docs/results/paper_budget_lost/$(basename "$out")-$was"
+  echo "$(basename "$out"): the record of the run started $was is an earlier run's: moved to docs/results/paper_budget_lost/"
+}
+
 record() {
   [ -d "$home" ] || die "no long-run home at $home"
   cd "$repo"
@@ -231,6 +243,7 @@ record() {
   for dir in $(runs); do
     name=$(basename "$dir")
     out=$repo/docs/results/paper_budget/$name
+    archive_earlier_record "$dir" "$out"
     mkdir -p "$out/snapshots"
     for f in config.toml provenance.json metrics.csv; do
       [ -f "$dir/run/$f" ] && cp "$dir/run/$f" "$out/$f"

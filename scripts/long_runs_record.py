@@ -189,7 +189,43 @@ def load_run(records, home, name):
     }
 
 
-def section(runs, commit, records_rel):
+def load_lost(lost_dir):
+    """Records of earlier runs whose home was lost (moved aside by `record`)."""
+    if not lost_dir.is_dir():
+        return []
+    out = []
+    for d in sorted(p for p in lost_dir.iterdir() if p.is_dir()):
+        env = keeper_env(d / "keeper.env")
+        metrics = read_metrics(d / "metrics.csv")
+        snaps = []
+        for p in sorted((d / "snapshots").glob("epoch-*.test.json")):
+            k = int(p.name.split(".")[0].split("-")[1])
+            snaps.append((k, read_eval(p)))
+        out.append({"dir": d.name, "env": env, "metrics": metrics, "snapshots": snaps})
+    return out
+
+
+def lost_runs(lost, records_rel):
+    """The lines that say which earlier runs were lost, how far they got and where their record is."""
+    if not lost:
+        return []
+    rel = records_rel.rstrip("/") + "_lost"
+    lines = ["", "Earlier runs of these configurations, lost with their machine between two sessions and started "
+             "again (their records are kept as they were):", ""]
+    for r in lost:
+        m = r["metrics"]
+        last = m[-1] if m else None
+        snaps = ", ".join(f"epoch {k}: {pct(t['interval']) if t else 'n/a'}" for k, t in r["snapshots"])
+        lines.append(
+            f"- [`{r['dir']}`]({rel}/{r['dir']}/): started {r['env'].get('STARTED', '?')}, "
+            f"{len(m)} epochs recorded ({last['env_steps'] if last else 0} env steps"
+            + (f", train {float(last['train_success_rate']):.2f}, eval {float(last['success_rate']):.2f}" if last else "")
+            + ")" + (f"; test success of its snapshots: {snaps}" if snaps else "") + "."
+        )
+    return lines
+
+
+def section(runs, commit, records_rel, lost=()):
     lines = [BEGIN, "## The paper's budget: the egg, Dense+FMSR+IS against Dense, 400 epochs", ""]
     lines.append(
         "Issue 37: both runs at the paper's config (`configs/egg_dense_fmsr_is.toml`, `configs/egg_dense.toml`: "
@@ -262,6 +298,7 @@ def section(runs, commit, records_rel):
             t = dict(r["snapshots"])[best]["test"]
             lines.append("")
             lines.append(f"- {r['label']}: the snapshot best on validation so far is epoch {best}, test success {pct(t['interval']) if t else 'n/a'}.")
+    lines += lost_runs(lost, records_rel)
     lines += ["", "Not yet: the final evaluation of issue 37, item 4 (500 episodes, MuJoCo, `fmsr report`, the paper's rows), "
               "which waits for both runs to reach 400 epochs.", END]
     return "\n".join(lines) + "\n"
@@ -280,7 +317,8 @@ def main():
     svg_curves(runs, a.records / "curves.svg")
     rel = os.path.relpath(a.records, a.results.parent)
     text = a.results.read_text()
-    new = section(runs, a.commit, rel)
+    lost = load_lost(a.records.parent / (a.records.name + "_lost"))
+    new = section(runs, a.commit, rel, lost)
     if BEGIN in text and END in text:
         head, rest = text.split(BEGIN, 1)
         tail = rest.split(END, 1)[1].lstrip("\n")
