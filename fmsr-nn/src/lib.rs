@@ -2,10 +2,15 @@
 //! MASAC, each with hindsight replay, finger-specific shadow rewards and
 //! information sharing (paper section III, Algorithm 1).
 //!
-//! Every learner implements [`fmsr_core::Algorithm`] (and so
-//! [`fmsr_core::Policy`]): it owns its HER replay buffer, its update schedule
-//! (`replay.batches` gradient steps per cycle), its target networks and its
-//! save/restore. They share one machinery:
+//! Every learner is one generic off-policy learner, [`OffPolicy<R>`], over an
+//! update rule (the crate's own `UpdateRule` trait) that holds only what makes the algorithm itself (its config,
+//! its losses and targets, its own state): [`Maddpg`] is
+//! `OffPolicy<MaddpgRule>`, [`Matd3`] `OffPolicy<Matd3Rule>`, [`Masac`]
+//! `OffPolicy<MasacRule>` ([`off_policy`]). `OffPolicy` implements
+//! [`fmsr_core::Algorithm`], [`fmsr_core::Policy`] and
+//! [`fmsr_core::PolicyState`] once: it owns the HER replay buffer, the update
+//! schedule (`replay.batches` gradient steps per cycle), the target networks
+//! and save/restore. They share one machinery:
 //!
 //! - per agent an actor (own input layer -> trunk of equal shape -> own head)
 //!   and one or two critics that see the global observation, the goal and
@@ -80,6 +85,7 @@ pub mod matd3;
 mod mixing;
 mod net;
 mod normalizer;
+pub mod off_policy;
 mod state;
 mod workers;
 
@@ -90,11 +96,12 @@ pub use config::{CriticSharing, MaddpgConfig, MasacConfig, Matd3Config, NetworkC
 pub use device::{Adapter, DeviceSpec};
 pub use error::NnError;
 pub use learner::LearnerParts;
-pub use maddpg::{Maddpg, StepLosses};
-pub use masac::Masac;
-pub use matd3::Matd3;
+pub use maddpg::{Maddpg, MaddpgRule};
+pub use masac::{Masac, MasacRule};
+pub use matd3::{Matd3, Matd3Rule};
 pub use net::{Critics, NetShape, StackLayout, StackedLinear, StackedMlp, StackedMlpConfig};
 pub use normalizer::Normalizer;
+pub use off_policy::{OffPolicy, StepLosses};
 pub use state::policy_from_learner_state;
 
 /// Everything needed for typical use: `use fmsr_nn::prelude::*;`.

@@ -21,17 +21,15 @@ use std::sync::Mutex;
 use burn::module::Module;
 use burn::tensor::activation::softplus;
 use burn::tensor::{Tensor, TensorData};
-use fmsr_core::algorithm::{Algorithm, RewardModel, UpdateStats};
-use fmsr_core::policy::{ActMode, Policy, PolicyOutput, PolicyState};
-use fmsr_core::replay::Episode;
+use fmsr_core::policy::{ActMode, PolicyOutput};
 use serde::{Deserialize, Serialize};
 
 use crate::config::{MasacConfig, Teammates};
 use crate::error::NnError;
 use crate::explore::{gaussian, randomize};
 use crate::group::to_vec1;
-use crate::learner::{Learner, LearnerParts};
-use crate::maddpg::{StepLosses, run_cycle};
+use crate::learner::{BatchTensors, Learner, LearnerParts};
+use crate::off_policy::{OffPolicy, StepLosses, UpdateRule};
 
 const HALF_LOG_TAU: f32 = 0.918_938_5; // log(2 pi) / 2
 
@@ -55,9 +53,12 @@ impl ScalarAdam {
 }
 
 /// Multi-agent SAC; see the [module docs](self).
-#[derive(Debug)]
-pub struct Masac {
-    learner: Learner,
+pub type Masac = OffPolicy<MasacRule>;
+
+/// MASAC's update rule: its config and every agent's entropy temperature
+/// with the Adam state that tunes it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MasacRule {
     config: MasacConfig,
     log_alpha: Vec<f64>,
     alpha_adam: Vec<ScalarAdam>,
@@ -85,41 +86,88 @@ impl Masac {
     /// # Errors
     /// [`NnError::InvalidConfig`] / [`NnError::Sharing`] naming the first impossible setting.
     pub fn new(parts: LearnerParts, config: MasacConfig) -> Result<Self, NnError> {
-        config.validate()?;
-        let learner = Learner::new(parts, 2, 2)?;
-        let n = learner.num_agents();
-        Ok(Self {
-            learner,
-            log_alpha: vec![config.initial_temperature.ln(); n],
-            alpha_adam: vec![ScalarAdam::default(); n],
-            config,
-        })
+        Self::with_rule(parts, MasacRule { config, log_alpha: Vec::new(), alpha_adam: Vec::new() })
     }
 
     /// The algorithm's config.
     #[must_use]
     pub fn config(&self) -> &MasacConfig {
-        &self.config
+        &self.rule.config
     }
 
     /// Each agent's entropy temperature `alpha_i`.
     #[must_use]
     pub fn temperatures(&self) -> Vec<f64> {
-        self.log_alpha.iter().map(|l| l.exp()).collect()
+        self.rule.log_alpha.iter().map(|l| l.exp()).collect()
     }
+}
 
+impl MasacRule {
     fn bounds(&self) -> (f32, f32) {
         (self.config.log_std_min as f32, self.config.log_std_max as f32)
     }
 
-    /// One step of every agent's critics, actor and temperature; `None` while the replay is empty.
-    ///
-    /// # Errors
-    /// Backend and shape errors.
-    pub fn step(&mut self, rewards: &dyn RewardModel) -> Result<Option<StepLosses>, NnError> {
-        let Some(b) = self.learner.sample(rewards)? else { return Ok(None) };
-        let (n, na, bounds) = (b.n, self.learner.num_agents(), self.bounds());
-        let l = &mut self.learner;
+    /// One Adam step of every agent's log temperature towards its target entropy.
+    fn update_temperatures(&mut self, mean_logp: &[f32], dims: &[usize], betas: (f64, f64, f64)) {
+        for (((la, adam), &lp), &d) in self.log_alpha.iter_mut().zip(&mut self.alpha_adam).zip(mean_logp).zip(dims) {
+            let target = self.config.target_entropy_per_dim * d as f64;
+            let grad = -(f64::from(lp) + target);
+            adam.step(la, grad, self.config.lr_temperature, betas);
+        }
+    }
+}
+
+impl UpdateRule for MasacRule {
+    const NAME: &'static str = "masac";
+    const CRITICS: usize = 2;
+    const HEADS: usize = 2;
+
+    fn validate(&self) -> Result<(), NnError> {
+        self.config.validate()
+    }
+
+    fn init(&mut self, agents: usize) {
+        self.log_alpha = vec![self.config.initial_temperature.ln(); agents];
+        self.alpha_adam = vec![ScalarAdam::default(); agents];
+    }
+
+    fn act(&mut self, l: &mut Learner, inputs: &[Vec<f32>], n: usize, mode: ActMode) -> Result<PolicyOutput, NnError> {
+        let heads = l.heads(inputs, n)?;
+        let (lo, hi) = self.bounds();
+        let mut actions = Vec::with_capacity(heads.len());
+        let mut log_probs = Vec::with_capacity(heads.len());
+        for (i, h) in heads.iter().enumerate() {
+            let d = l.action_dim(i);
+            let mut a = Vec::with_capacity(n * d);
+            let mut lps = Vec::with_capacity(n);
+            for row in h.chunks_exact(2 * d) {
+                let (mean, log_std) = row.split_at(d);
+                let mut lp = 0.0f32;
+                for (m, s) in mean.iter().zip(log_std) {
+                    let s = s.clamp(lo, hi);
+                    let eps = if mode == ActMode::Explore { gaussian(&mut l.rng) } else { 0.0 };
+                    let u = m + s.exp() * eps;
+                    lp += -0.5 * eps * eps - s - HALF_LOG_TAU - (1.0 - u.tanh().powi(2) + 1e-6).ln();
+                    a.push(u.tanh());
+                }
+                lps.push(lp);
+            }
+            actions.push(a);
+            log_probs.push(lps);
+        }
+        if mode == ActMode::Explore && self.config.random_eps > 0.0 {
+            randomize(&mut actions, n, self.config.random_eps as f32, &mut l.rng);
+        }
+        Ok(PolicyOutput {
+            actions,
+            log_probs: if mode == ActMode::Explore { log_probs } else { Vec::new() },
+            values: Vec::new(),
+        })
+    }
+
+    /// One step of every agent's critics, actor and temperature.
+    fn step(&mut self, l: &mut Learner, b: &BatchTensors) -> Result<StepLosses, NnError> {
+        let (n, na, bounds) = (b.n, l.num_agents(), self.bounds());
         let device = l.device.clone();
         let alphas: Vec<f32> = self.log_alpha.iter().map(|v| v.exp() as f32).collect();
         let alpha: Vec<Tensor<3>> = l
@@ -139,14 +187,14 @@ impl Masac {
             .into_iter()
             .reduce(|a, b| a + b)
             .ok_or(NnError::Backend { what: "next actions", reason: "no group".into() })?;
-        let critic = l.critic_step(&b, joint, Some(soft))?;
+        let critic = l.critic_step(b, joint, Some(soft))?;
         // Actor step on fresh samples; the batch means of log pi feed the temperature.
         let eps = l.noise(n, gaussian);
         let current;
         let b = match self.config.teammates {
-            Teammates::Replay => &b,
+            Teammates::Replay => b,
             Teammates::Current => {
-                current = l.with_current_actions(&b, |head, group| head.narrow(2, 0, group.max_action()).tanh())?;
+                current = l.with_current_actions(b, |head, group| head.narrow(2, 0, group.max_action()).tanh())?;
                 &current
             }
         };
@@ -169,125 +217,37 @@ impl Masac {
         l.comm.all_reduce_mean(&mut mean_logp);
         let dims: Vec<usize> = (0..na).map(|i| l.action_dim(i)).collect();
         l.steps += 1;
-        self.update_temperatures(&mean_logp, &dims);
-        Ok(Some(StepLosses { critic, actor: Some(actor) }))
+        let c = &l.net;
+        self.update_temperatures(&mean_logp, &dims, (c.adam_beta1, c.adam_beta2, c.adam_epsilon));
+        Ok(StepLosses { critic, actor: Some(actor) })
     }
 
-    fn update_temperatures(&mut self, mean_logp: &[f32], dims: &[usize]) {
-        let c = &self.learner.net;
-        let betas = (c.adam_beta1, c.adam_beta2, c.adam_epsilon);
-        for (((la, adam), &lp), &d) in self.log_alpha.iter_mut().zip(&mut self.alpha_adam).zip(mean_logp).zip(dims) {
-            let target = self.config.target_entropy_per_dim * d as f64;
-            let grad = -(f64::from(lp) + target);
-            adam.step(la, grad, self.config.lr_temperature, betas);
-        }
+    fn targets(&self) -> (f64, bool) {
+        (self.config.polyak, false)
     }
 
-    /// Agent `agent`'s actor trunk, flattened.
-    ///
-    /// # Errors
-    /// [`NnError::UnknownAgent`].
-    pub fn actor_trunk(&self, agent: usize) -> Result<Vec<f32>, NnError> {
-        self.learner.actor_trunk(agent)
-    }
-}
-
-impl Policy for Masac {
-    type Error = NnError;
-
-    fn num_agents(&self) -> usize {
-        self.learner.num_agents()
-    }
-
-    fn act(&mut self, inputs: &[Vec<f32>], n: usize, mode: ActMode) -> Result<PolicyOutput, NnError> {
-        let heads = self.learner.heads(inputs, n)?;
-        let (lo, hi) = self.bounds();
-        let mut actions = Vec::with_capacity(heads.len());
-        let mut log_probs = Vec::with_capacity(heads.len());
-        for (i, h) in heads.iter().enumerate() {
-            let d = self.learner.action_dim(i);
-            let mut a = Vec::with_capacity(n * d);
-            let mut lps = Vec::with_capacity(n);
-            for row in h.chunks_exact(2 * d) {
-                let (mean, log_std) = row.split_at(d);
-                let mut lp = 0.0f32;
-                for (m, s) in mean.iter().zip(log_std) {
-                    let s = s.clamp(lo, hi);
-                    let eps = if mode == ActMode::Explore { gaussian(&mut self.learner.rng) } else { 0.0 };
-                    let u = m + s.exp() * eps;
-                    lp += -0.5 * eps * eps - s - HALF_LOG_TAU - (1.0 - u.tanh().powi(2) + 1e-6).ln();
-                    a.push(u.tanh());
-                }
-                lps.push(lp);
-            }
-            actions.push(a);
-            log_probs.push(lps);
-        }
-        if mode == ActMode::Explore && self.config.random_eps > 0.0 {
-            randomize(&mut actions, n, self.config.random_eps as f32, &mut self.learner.rng);
-        }
-        Ok(PolicyOutput {
-            actions,
-            log_probs: if mode == ActMode::Explore { log_probs } else { Vec::new() },
-            values: Vec::new(),
-        })
-    }
-}
-
-impl Algorithm for Masac {
-    fn store(&mut self, episode: &Episode) -> Result<(), NnError> {
-        self.learner.store(episode)
-    }
-
-    fn update(&mut self, rewards: &dyn RewardModel) -> Result<UpdateStats, NnError> {
-        let (batches, agents) = (self.learner.replay_config.batches, self.learner.num_agents());
-        let stats = run_cycle(batches, agents, || self.step(rewards))?;
-        if stats.updates > 0 {
-            self.learner.soft_update_targets(self.config.polyak, false);
-        }
-        Ok(stats)
-    }
-
-    fn save_state(&self, include_storage: bool) -> Result<Vec<u8>, NnError> {
-        let mut extra = self.log_alpha.clone();
+    /// The log temperatures, then each agent's Adam state `(t, m, v)`.
+    fn save_extra(&self) -> Vec<f64> {
+        let mut values = self.log_alpha.clone();
         for a in &self.alpha_adam {
-            extra.extend([a.t as f64, a.m, a.v]);
+            values.extend([a.t as f64, a.m, a.v]);
         }
-        self.learner.save("masac", include_storage, extra)
+        values
     }
 
-    fn load_state(&mut self, bytes: &[u8]) -> Result<(), NnError> {
-        let extra = self.learner.load("masac", bytes)?;
+    fn load_extra(&mut self, values: &[f64]) -> Result<(), NnError> {
         let n = self.log_alpha.len();
-        if extra.len() != 4 * n {
+        if values.len() != 4 * n {
             return Err(NnError::StateMismatch {
                 what: "temperature state".into(),
                 expected: (4 * n).to_string(),
-                found: extra.len().to_string(),
+                found: values.len().to_string(),
             });
         }
-        self.log_alpha.copy_from_slice(&extra[..n]);
-        for (a, c) in self.alpha_adam.iter_mut().zip(extra[n..].chunks_exact(3)) {
+        self.log_alpha.copy_from_slice(&values[..n]);
+        for (a, c) in self.alpha_adam.iter_mut().zip(values[n..].chunks_exact(3)) {
             *a = ScalarAdam { t: c[0] as u64, m: c[1], v: c[2] };
         }
         Ok(())
-    }
-
-    fn storage_capacity(&self) -> usize {
-        self.learner.storage_capacity()
-    }
-
-    fn restore_storage(&mut self, total: u64, episodes: &[Episode]) -> Result<(), NnError> {
-        self.learner.restore_storage(total, episodes)
-    }
-}
-
-impl PolicyState for Masac {
-    fn save_policy(&self) -> Result<Vec<u8>, NnError> {
-        self.learner.save_policy("masac")
-    }
-
-    fn load_policy(&mut self, bytes: &[u8]) -> Result<(), NnError> {
-        self.learner.load_policy("masac", bytes)
     }
 }

@@ -17,10 +17,13 @@
 //!
 //! By job: `replay.rs` holds the HER replay buffer, its sampling and the
 //! batches it uploads; `steps.rs` the critic and actor steps, worker averaging,
-//! information sharing and polyak targets; `probes.rs` the views into the
-//! networks that tests and tools read; this file the networks, the
-//! normalisers and acting.
+//! information sharing and polyak targets; `deterministic.rs` what the
+//! deterministic-actor rules share (target actions, the policy-gradient step,
+//! acting with exploration); `probes.rs` the views into the networks that
+//! tests and tools read; this file the networks, the normalisers and acting.
+//! The algorithms drive it through [`crate::off_policy`].
 
+pub(crate) mod deterministic;
 mod probes;
 mod replay;
 mod steps;

@@ -1,0 +1,274 @@
+//! The one off-policy learner: [`OffPolicy<R>`] implements [`Policy`],
+//! [`Algorithm`] and [`PolicyState`] once, over an update rule (the crate's `UpdateRule` trait) that holds
+//! only what makes an algorithm itself (its config, its losses and targets,
+//! its own state). MADDPG, MATD3 and MASAC are the three rules
+//! ([`crate::Maddpg`] is `OffPolicy<MaddpgRule>`, and so on); everything else,
+//! the networks, normalisers, HER replay, information sharing, worker
+//! averaging and saved states, is the shared [`crate::learner`].
+//!
+//! One update cycle (Algorithm 1, stages 2-4):
+//!
+//! ```text
+//! repeat `replay.batches` times: sample a HER batch (rewards r_i from the trainer's
+//!     RewardModel, eq. 7), then the rule's step: critics, actors, sharing hooks
+//! then the targets move once: theta' <- polyak theta' + (1 - polyak) theta   (eq. 9)
+//! ```
+//!
+//! A rule is written in this crate, against the crate's learner; an algorithm
+//! of your own crate implements [`Algorithm`] directly (the `fmsr` crate's
+//! `examples/custom_algorithm.rs`).
+
+use fmsr_core::algorithm::{Algorithm, RewardModel, UpdateStats};
+use fmsr_core::policy::{ActMode, Policy, PolicyOutput, PolicyState};
+use fmsr_core::replay::Episode;
+
+use crate::error::NnError;
+use crate::learner::{BatchTensors, Learner, LearnerParts};
+
+/// What distinguishes one off-policy algorithm; see the [module docs](self).
+///
+/// Its methods take the crate's shared learner, so the trait is this crate's
+/// own (a user's algorithm implements [`Algorithm`] instead). A new rule is
+/// one file: a struct holding its config and state, this trait, and the
+/// `new` of its `OffPolicy` alias.
+pub(crate) trait UpdateRule: std::fmt::Debug + Send {
+    /// The name saved states and policy states carry (`"maddpg"`).
+    const NAME: &'static str;
+    /// Critics per agent (2 for twin critics).
+    const CRITICS: usize;
+    /// Output blocks of each actor head (2 for a Gaussian's mean and log-std).
+    const HEADS: usize;
+
+    /// Checks the rule's own settings.
+    ///
+    /// # Errors
+    /// [`NnError::InvalidConfig`] naming the first impossible setting.
+    fn validate(&self) -> Result<(), NnError>;
+
+    /// Prepares the rule's own state for a learner of `agents` agents.
+    fn init(&mut self, _agents: usize) {}
+
+    /// Acts for all agents (`n` rows of inputs each), exploring in [`ActMode::Explore`].
+    ///
+    /// # Errors
+    /// Backend and shape errors.
+    fn act(&mut self, l: &mut Learner, inputs: &[Vec<f32>], n: usize, mode: ActMode) -> Result<PolicyOutput, NnError>;
+
+    /// One gradient step on a sampled batch: the critics, and the actors when
+    /// the rule updates them at this step.
+    ///
+    /// # Errors
+    /// Backend and shape errors.
+    fn step(&mut self, l: &mut Learner, b: &BatchTensors) -> Result<StepLosses, NnError>;
+
+    /// How the targets move after a cycle: `polyak` and whether the actors have targets.
+    fn targets(&self) -> (f64, bool);
+
+    /// The rule's own state beside the networks, as saved (learner state
+    /// format 4 keeps it as a list of values; empty for rules without one).
+    fn save_extra(&self) -> Vec<f64> {
+        Vec::new()
+    }
+
+    /// Restores what [`UpdateRule::save_extra`] wrote.
+    ///
+    /// # Errors
+    /// [`NnError::StateMismatch`] for values that do not fit.
+    fn load_extra(&mut self, values: &[f64]) -> Result<(), NnError> {
+        if values.is_empty() {
+            return Ok(());
+        }
+        Err(NnError::StateMismatch {
+            what: format!("{} state", Self::NAME),
+            expected: "no values".into(),
+            found: values.len().to_string(),
+        })
+    }
+}
+
+/// Each agent's losses of one gradient step.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepLosses {
+    /// Critic (TD) loss of each agent.
+    pub critic: Vec<f32>,
+    /// Actor loss of each agent, when the step updated the actors.
+    pub actor: Option<Vec<f32>>,
+}
+
+/// An off-policy learner with update rule `R`; see the [module docs](self).
+#[derive(Debug)]
+pub struct OffPolicy<R> {
+    pub(crate) learner: Learner,
+    pub(crate) rule: R,
+}
+
+#[allow(private_bounds)]
+impl<R: UpdateRule> OffPolicy<R> {
+    /// The learner of `rule` from the shared parts.
+    ///
+    /// # Errors
+    /// [`NnError::InvalidConfig`] / [`NnError::Sharing`] naming the first impossible setting.
+    pub fn with_rule(parts: LearnerParts, mut rule: R) -> Result<Self, NnError> {
+        rule.validate()?;
+        let learner = Learner::new(parts, R::CRITICS, R::HEADS)?;
+        rule.init(learner.num_agents());
+        Ok(Self { learner, rule })
+    }
+
+    /// The update rule (the algorithm's config and own state).
+    #[must_use]
+    pub fn rule(&self) -> &R {
+        &self.rule
+    }
+
+    /// One gradient step of the rule; `None` while the replay is empty.
+    ///
+    /// # Errors
+    /// Backend and shape errors.
+    pub fn step(&mut self, rewards: &dyn RewardModel) -> Result<Option<StepLosses>, NnError> {
+        let Some(b) = self.learner.sample(rewards)? else { return Ok(None) };
+        self.rule.step(&mut self.learner, &b).map(Some)
+    }
+
+    /// Moves the target networks towards the online networks (eq. 9); the
+    /// update cycle does this once per cycle.
+    pub fn update_targets(&mut self) {
+        let (polyak, actors) = self.rule.targets();
+        self.learner.soft_update_targets(polyak, actors);
+    }
+
+    /// Agent `agent`'s actor trunk, flattened (what information sharing mixes).
+    ///
+    /// # Errors
+    /// [`NnError::UnknownAgent`].
+    pub fn actor_trunk(&self, agent: usize) -> Result<Vec<f32>, NnError> {
+        self.learner.actor_trunk(agent)
+    }
+
+    /// Replaces agent `agent`'s actor trunk.
+    ///
+    /// # Errors
+    /// [`NnError::UnknownAgent`], [`NnError::Dimension`].
+    pub fn set_actor_trunk(&mut self, agent: usize, trunk: &[f32]) -> Result<(), NnError> {
+        self.learner.set_actor_trunk(agent, trunk)
+    }
+
+    /// Agent `agent`'s critic trunk, flattened.
+    ///
+    /// # Errors
+    /// [`NnError::UnknownAgent`].
+    pub fn critic_trunk(&self, agent: usize) -> Result<Vec<f32>, NnError> {
+        self.learner.critic_trunk(agent)
+    }
+
+    /// All parameters of agent `agent`'s online actor and (first) critic, flattened.
+    ///
+    /// # Errors
+    /// [`NnError::UnknownAgent`], backend errors.
+    pub fn params(&self, agent: usize) -> Result<(Vec<f32>, Vec<f32>), NnError> {
+        self.learner.params(agent)
+    }
+
+    /// `Q_i(x, g, a)` of agent `agent`'s (first) online critic for `n` rows of
+    /// raw observations, goals and joint actions (in the environment's slot order).
+    ///
+    /// # Errors
+    /// [`NnError::UnknownAgent`], [`NnError::Dimension`] / [`NnError::NotFinite`].
+    pub fn q_values(
+        &self,
+        agent: usize,
+        obs: &[f32],
+        goals: &[f32],
+        actions: &[f32],
+        n: usize,
+    ) -> Result<Vec<f32>, NnError> {
+        self.learner.q_values(agent, obs, goals, actions, n)
+    }
+
+    /// Transitions stored in the replay buffer.
+    #[must_use]
+    pub fn replay_len(&self) -> usize {
+        self.learner.replay.transitions()
+    }
+}
+
+/// Runs `batches` steps and averages their losses (actor losses over the
+/// steps that updated the actors).
+fn run_cycle(
+    batches: usize,
+    agents: usize,
+    mut step: impl FnMut() -> Result<Option<StepLosses>, NnError>,
+) -> Result<UpdateStats, NnError> {
+    let mut stats = UpdateStats { updates: 0, critic_loss: vec![0.0; agents], actor_loss: vec![0.0; agents] };
+    let mut actor_steps = 0usize;
+    for _ in 0..batches {
+        let Some(StepLosses { critic, actor }) = step()? else { break };
+        stats.updates += 1;
+        stats.critic_loss.iter_mut().zip(&critic).for_each(|(a, v)| *a += f64::from(*v));
+        if let Some(actor) = actor {
+            actor_steps += 1;
+            stats.actor_loss.iter_mut().zip(&actor).for_each(|(a, v)| *a += f64::from(*v));
+        }
+    }
+    let n = stats.updates.max(1) as f64;
+    stats.critic_loss.iter_mut().for_each(|v| *v /= n);
+    stats.actor_loss.iter_mut().for_each(|v| *v /= actor_steps.max(1) as f64);
+    Ok(stats)
+}
+
+#[allow(private_bounds)]
+impl<R: UpdateRule> Policy for OffPolicy<R> {
+    type Error = NnError;
+
+    fn num_agents(&self) -> usize {
+        self.learner.num_agents()
+    }
+
+    fn act(&mut self, inputs: &[Vec<f32>], n: usize, mode: ActMode) -> Result<PolicyOutput, NnError> {
+        self.rule.act(&mut self.learner, inputs, n, mode)
+    }
+}
+
+#[allow(private_bounds)]
+impl<R: UpdateRule> Algorithm for OffPolicy<R> {
+    fn store(&mut self, episode: &Episode) -> Result<(), NnError> {
+        self.learner.store(episode)
+    }
+
+    fn update(&mut self, rewards: &dyn RewardModel) -> Result<UpdateStats, NnError> {
+        let (batches, agents) = (self.learner.replay_config.batches, self.learner.num_agents());
+        let stats = run_cycle(batches, agents, || self.step(rewards))?;
+        if stats.updates > 0 {
+            self.update_targets();
+        }
+        Ok(stats)
+    }
+
+    fn save_state(&self, include_storage: bool) -> Result<Vec<u8>, NnError> {
+        self.learner.save(R::NAME, include_storage, self.rule.save_extra())
+    }
+
+    fn load_state(&mut self, bytes: &[u8]) -> Result<(), NnError> {
+        let extra = self.learner.load(R::NAME, bytes)?;
+        self.rule.load_extra(&extra)
+    }
+
+    fn storage_capacity(&self) -> usize {
+        self.learner.storage_capacity()
+    }
+
+    fn restore_storage(&mut self, total: u64, episodes: &[Episode]) -> Result<(), NnError> {
+        self.learner.restore_storage(total, episodes)
+    }
+}
+
+#[allow(private_bounds)]
+impl<R: UpdateRule> PolicyState for OffPolicy<R> {
+    fn save_policy(&self) -> Result<Vec<u8>, NnError> {
+        self.learner.save_policy(R::NAME)
+    }
+
+    fn load_policy(&mut self, bytes: &[u8]) -> Result<(), NnError> {
+        self.learner.load_policy(R::NAME, bytes)
+    }
+}
