@@ -112,8 +112,7 @@ pub mod prelude {
         ShadowConfig, ShadowMode, ShadowReward, ShadowRewards,
     };
     pub use crate::sharing::{
-        InformationSharing, MixingChoice, NetworkGroup, ShareMode, ShareTarget, SharedParameters, Sharing,
-        SharingConfig,
+        InformationSharing, MixingChoice, NetworkKind, ShareMode, ShareTarget, SharedParameters, Sharing, SharingConfig,
     };
     pub use crate::spec::{AgentSpec, EnvSpec, JointAction, Observation, RewardType, StepInfo, StepOutcome};
     pub use crate::trainer::{EpochStats, EvalSummary, Trainer, TrainerConfig};

@@ -12,7 +12,7 @@ use std::ops::Range;
 use burn::module::ParamId;
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
 use burn::tensor::{Device, Tensor, TensorData};
-use fmsr_core::sharing::NetworkGroup;
+use fmsr_core::sharing::NetworkKind;
 
 use crate::error::NnError;
 use crate::net::{Critics, StackLayout, StackedMlp, StackedMlpConfig};
@@ -34,49 +34,49 @@ pub(crate) struct Nets {
 
 impl Nets {
     /// Every parameter id of `kind`, `(weight, bias)` per layer.
-    pub(crate) fn ids(&self, kind: NetworkGroup) -> Vec<(ParamId, ParamId)> {
+    pub(crate) fn ids(&self, kind: NetworkKind) -> Vec<(ParamId, ParamId)> {
         match kind {
-            NetworkGroup::Actors => self.actors.ids(),
-            NetworkGroup::Critics => self.critics.nets.iter().flat_map(StackedMlp::ids).collect(),
+            NetworkKind::Actors => self.actors.ids(),
+            NetworkKind::Critics => self.critics.nets.iter().flat_map(StackedMlp::ids).collect(),
         }
     }
 
     /// The trunk parameter ids of `kind` (every critic's, critic by critic).
-    pub(crate) fn trunk_ids(&self, kind: NetworkGroup) -> Vec<(ParamId, ParamId)> {
+    pub(crate) fn trunk_ids(&self, kind: NetworkKind) -> Vec<(ParamId, ParamId)> {
         match kind {
-            NetworkGroup::Actors => self.actors.trunk_ids(),
-            NetworkGroup::Critics => self.critics.nets.iter().flat_map(StackedMlp::trunk_ids).collect(),
+            NetworkKind::Actors => self.actors.trunk_ids(),
+            NetworkKind::Critics => self.critics.nets.iter().flat_map(StackedMlp::trunk_ids).collect(),
         }
     }
 
     /// The number of stacks of `kind` (1 for the actors, one per critic).
-    pub(crate) fn copies(&self, kind: NetworkGroup) -> usize {
+    pub(crate) fn copies(&self, kind: NetworkKind) -> usize {
         match kind {
-            NetworkGroup::Actors => 1,
-            NetworkGroup::Critics => self.critics.nets.len(),
+            NetworkKind::Actors => 1,
+            NetworkKind::Critics => self.critics.nets.len(),
         }
     }
 
     /// Stack `c` of `kind` (the actors, or critic `c`).
-    pub(crate) fn stack_mut(&mut self, kind: NetworkGroup, c: usize) -> &mut StackedMlp {
+    pub(crate) fn stack_mut(&mut self, kind: NetworkKind, c: usize) -> &mut StackedMlp {
         match kind {
-            NetworkGroup::Actors => &mut self.actors,
-            NetworkGroup::Critics => &mut self.critics.nets[c],
+            NetworkKind::Actors => &mut self.actors,
+            NetworkKind::Critics => &mut self.critics.nets[c],
         }
     }
 
-    fn gradients(&self, kind: NetworkGroup, loss: Tensor<1>) -> GradientsParams {
+    fn gradients(&self, kind: NetworkKind, loss: Tensor<1>) -> GradientsParams {
         match kind {
-            NetworkGroup::Actors => GradientsParams::from_grads(loss.backward(), &self.actors),
-            NetworkGroup::Critics => GradientsParams::from_grads(loss.backward(), &self.critics),
+            NetworkKind::Actors => GradientsParams::from_grads(loss.backward(), &self.actors),
+            NetworkKind::Critics => GradientsParams::from_grads(loss.backward(), &self.critics),
         }
     }
 
     /// One Adam step of the networks of `kind`.
-    pub(crate) fn optimize(&mut self, kind: NetworkGroup, lr: f64, grads: GradientsParams) {
+    pub(crate) fn optimize(&mut self, kind: NetworkKind, lr: f64, grads: GradientsParams) {
         match kind {
-            NetworkGroup::Actors => self.actors = self.actor_optim.step(lr, self.actors.clone(), grads),
-            NetworkGroup::Critics => self.critics = self.critic_optim.step(lr, self.critics.clone(), grads),
+            NetworkKind::Actors => self.actors = self.actor_optim.step(lr, self.actors.clone(), grads),
+            NetworkKind::Critics => self.critics = self.critic_optim.step(lr, self.critics.clone(), grads),
         }
     }
 
@@ -84,7 +84,7 @@ impl Nets {
     /// sum; with `fused` the optimiser steps at once and no gradients are returned.
     pub(crate) fn step(
         &mut self,
-        kind: NetworkGroup,
+        kind: NetworkKind,
         loss: Tensor<1>,
         lr: f64,
         fused: bool,

@@ -59,9 +59,10 @@ pub struct Sharing {
     pub target: ShareTarget,
 }
 
-/// Which networks of the agents a consensus step acts on.
+/// Which kind of the agents' networks a consensus step acts on (in
+/// fmsr-nn a "group" is something else: agents whose networks are stacked together).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum NetworkGroup {
+pub enum NetworkKind {
     /// The actors' trunks.
     Actors,
     /// The critics' trunks.
@@ -74,8 +75,8 @@ pub trait SharedParameters {
     /// The error of the holder.
     type Error;
 
-    /// `theta_i <- sum_j M[i][j] theta_j` over the blocks of `group`.
-    fn consensus_step(&mut self, group: NetworkGroup, mixing: &MixingMatrix) -> Result<(), Self::Error>;
+    /// `theta_i <- sum_j M[i][j] theta_j` over the blocks of the networks of `kind`.
+    fn consensus_step(&mut self, kind: NetworkKind, mixing: &MixingMatrix) -> Result<(), Self::Error>;
 }
 
 /// When and what information sharing mixes; see the [module docs](self).
@@ -97,43 +98,43 @@ impl InformationSharing {
         self.sharing.as_ref()
     }
 
-    fn applies(&self, mode: ShareMode, group: NetworkGroup) -> Option<&MixingMatrix> {
+    fn applies(&self, mode: ShareMode, kind: NetworkKind) -> Option<&MixingMatrix> {
         let s = self.sharing.as_ref()?;
         let target = matches!(
-            (s.target, group),
+            (s.target, kind),
             (ShareTarget::Both, _)
-                | (ShareTarget::Actors, NetworkGroup::Actors)
-                | (ShareTarget::Critics, NetworkGroup::Critics)
+                | (ShareTarget::Actors, NetworkKind::Actors)
+                | (ShareTarget::Critics, NetworkKind::Critics)
         );
         (s.mode == mode && target).then_some(&s.mixing)
     }
 
-    /// Whether the gradients of `group` are mixed before its optimiser step.
+    /// Whether the gradients of `kind` are mixed before its optimiser step.
     #[must_use]
-    pub fn mixes_gradients(&self, group: NetworkGroup) -> bool {
-        self.applies(ShareMode::Gradients, group).is_some()
+    pub fn mixes_gradients(&self, kind: NetworkKind) -> bool {
+        self.applies(ShareMode::Gradients, kind).is_some()
     }
 
-    /// Gradient mode: mixes the gradients of `group` held by `grads`, if configured.
-    pub fn mix_gradients<P: SharedParameters>(&self, group: NetworkGroup, grads: &mut P) -> Result<(), P::Error> {
-        match self.applies(ShareMode::Gradients, group) {
-            Some(m) => grads.consensus_step(group, m),
+    /// Gradient mode: mixes the gradients of `kind` held by `grads`, if configured.
+    pub fn mix_gradients<P: SharedParameters>(&self, kind: NetworkKind, grads: &mut P) -> Result<(), P::Error> {
+        match self.applies(ShareMode::Gradients, kind) {
+            Some(m) => grads.consensus_step(kind, m),
             None => Ok(()),
         }
     }
 
-    /// Parameter mode: mixes the parameters of `group` after its optimiser step, if configured.
-    pub fn mix_parameters<P: SharedParameters>(&self, group: NetworkGroup, params: &mut P) -> Result<(), P::Error> {
-        match self.applies(ShareMode::Parameters, group) {
-            Some(m) => params.consensus_step(group, m),
+    /// Parameter mode: mixes the parameters of `kind` after its optimiser step, if configured.
+    pub fn mix_parameters<P: SharedParameters>(&self, kind: NetworkKind, params: &mut P) -> Result<(), P::Error> {
+        match self.applies(ShareMode::Parameters, kind) {
+            Some(m) => params.consensus_step(kind, m),
             None => Ok(()),
         }
     }
 
-    /// Whether the shared parts of `group` must start identical (they are mixed at all).
+    /// Whether the shared parts of `kind` must start identical (they are mixed at all).
     #[must_use]
-    pub fn shares(&self, group: NetworkGroup) -> bool {
-        self.applies(ShareMode::Gradients, group).is_some() || self.applies(ShareMode::Parameters, group).is_some()
+    pub fn shares(&self, kind: NetworkKind) -> bool {
+        self.applies(ShareMode::Gradients, kind).is_some() || self.applies(ShareMode::Parameters, kind).is_some()
     }
 }
 
@@ -142,14 +143,14 @@ mod tests {
     use super::*;
     use fmsr_graph::{Graph, MetropolisHastings, MixingRule};
 
-    /// Records which groups were mixed.
+    /// Records which kinds were mixed.
     #[derive(Default)]
-    struct Log(Vec<NetworkGroup>);
+    struct Log(Vec<NetworkKind>);
 
     impl SharedParameters for Log {
         type Error = ();
-        fn consensus_step(&mut self, group: NetworkGroup, _: &MixingMatrix) -> Result<(), ()> {
-            self.0.push(group);
+        fn consensus_step(&mut self, kind: NetworkKind, _: &MixingMatrix) -> Result<(), ()> {
+            self.0.push(kind);
             Ok(())
         }
     }
@@ -162,20 +163,17 @@ mod tests {
         let is = |mode, target| InformationSharing::new(Some(Sharing { mixing: mixing.clone(), mode, target }));
         let run = |s: &InformationSharing| {
             let mut log = Log::default();
-            for g in [NetworkGroup::Critics, NetworkGroup::Actors] {
+            for g in [NetworkKind::Critics, NetworkKind::Actors] {
                 s.mix_gradients(g, &mut log).unwrap();
                 s.mix_parameters(g, &mut log).unwrap();
             }
             log.0
         };
-        assert_eq!(run(&is(ShareMode::Parameters, ShareTarget::Actors)), vec![NetworkGroup::Actors]);
-        assert_eq!(run(&is(ShareMode::Gradients, ShareTarget::Critics)), vec![NetworkGroup::Critics]);
-        assert_eq!(
-            run(&is(ShareMode::Parameters, ShareTarget::Both)),
-            vec![NetworkGroup::Critics, NetworkGroup::Actors]
-        );
+        assert_eq!(run(&is(ShareMode::Parameters, ShareTarget::Actors)), vec![NetworkKind::Actors]);
+        assert_eq!(run(&is(ShareMode::Gradients, ShareTarget::Critics)), vec![NetworkKind::Critics]);
+        assert_eq!(run(&is(ShareMode::Parameters, ShareTarget::Both)), vec![NetworkKind::Critics, NetworkKind::Actors]);
         assert!(run(&InformationSharing::new(None)).is_empty());
-        assert!(is(ShareMode::Gradients, ShareTarget::Actors).mixes_gradients(NetworkGroup::Actors));
-        assert!(!is(ShareMode::Gradients, ShareTarget::Actors).shares(NetworkGroup::Critics));
+        assert!(is(ShareMode::Gradients, ShareTarget::Actors).mixes_gradients(NetworkKind::Actors));
+        assert!(!is(ShareMode::Gradients, ShareTarget::Actors).shares(NetworkKind::Critics));
     }
 }

@@ -32,7 +32,7 @@ use burn::optim::AdamConfig;
 use burn::tensor::{Device, Tensor, TensorData};
 use fmsr_core::agent::{Communicator, ObservationLayout};
 use fmsr_core::replay::{ReplayBuffer, ReplayConfig};
-use fmsr_core::sharing::{InformationSharing, NetworkGroup, Sharing};
+use fmsr_core::sharing::{InformationSharing, NetworkKind, Sharing};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -198,7 +198,7 @@ impl Learner {
         check_parts(&layout, gamma, sharing.as_ref())?;
         let spec = layout.spec().clone();
         let sharing = InformationSharing::new(sharing);
-        if net.critic != CriticSharing::PerAgent && sharing.shares(NetworkGroup::Critics) {
+        if net.critic != CriticSharing::PerAgent && sharing.shares(NetworkKind::Critics) {
             return Err(NnError::Sharing {
                 reason: format!(
                     "networks.critic = {:?} already shares the critics' trunk; information sharing can mix only the actors",
@@ -220,7 +220,7 @@ impl Learner {
             critics,
             critic_shared: net.critic.shared_layers(net.layers),
             head_mult,
-            same_trunks: (sharing.shares(NetworkGroup::Actors), sharing.shares(NetworkGroup::Critics)),
+            same_trunks: (sharing.shares(NetworkKind::Actors), sharing.shares(NetworkKind::Critics)),
             adam: AdamConfig::new()
                 .with_beta_1(net.adam_beta1 as f32)
                 .with_beta_2(net.adam_beta2 as f32)

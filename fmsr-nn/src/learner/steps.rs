@@ -5,7 +5,7 @@
 use burn::module::Module;
 use burn::optim::GradientsParams;
 use burn::tensor::{Device, Tensor};
-use fmsr_core::sharing::{NetworkGroup, SharedParameters};
+use fmsr_core::sharing::{NetworkKind, SharedParameters};
 use fmsr_graph::MixingMatrix;
 
 use crate::error::NnError;
@@ -23,7 +23,7 @@ struct Shared<'a> {
 impl SharedParameters for Shared<'_> {
     type Error = NnError;
 
-    fn consensus_step(&mut self, kind: NetworkGroup, mixing: &MixingMatrix) -> Result<(), NnError> {
+    fn consensus_step(&mut self, kind: NetworkKind, mixing: &MixingMatrix) -> Result<(), NnError> {
         let copies = self.groups.first().map_or(0, |g| g.nets.copies(kind));
         for c in 0..copies {
             let stacks = self.groups.iter_mut().map(|g| g.nets.stack_mut(kind, c)).collect();
@@ -44,7 +44,7 @@ struct SharedGrads<'a> {
 impl SharedParameters for SharedGrads<'_> {
     type Error = NnError;
 
-    fn consensus_step(&mut self, _: NetworkGroup, mixing: &MixingMatrix) -> Result<(), NnError> {
+    fn consensus_step(&mut self, _: NetworkKind, mixing: &MixingMatrix) -> Result<(), NnError> {
         mix_gradients(self.grads, &self.ids, self.agents, mixing, &self.device)
     }
 }
@@ -69,7 +69,7 @@ impl Learner {
         let next_input = Tensor::cat(vec![b.og_next.clone(), next_actions], 1).unsqueeze_dim::<3>(0);
         let input = Tensor::from_inner(Tensor::cat(vec![b.og.clone(), b.actions.clone()], 1).unsqueeze_dim::<3>(0));
         let gamma = self.gamma as f32;
-        self.step_groups(NetworkGroup::Critics, |g, group| {
+        self.step_groups(NetworkKind::Critics, |g, group| {
             let (gb, na) = (&b.groups[g], group.len());
             let mut q_next = group.nets.critic_targets.nets.iter().map(|c| c.forward(next_input.clone()));
             let first = q_next.next().ok_or(NnError::Backend { what: "critic target", reason: "no critic".into() })?;
@@ -101,7 +101,7 @@ impl Learner {
     where
         F: Fn(usize, &Group, &Critics) -> Result<Tensor<1>, NnError> + Sync,
     {
-        let losses = self.step_groups(NetworkGroup::Actors, |g, group| {
+        let losses = self.step_groups(NetworkKind::Actors, |g, group| {
             let critics = group.nets.critics.clone().no_grad();
             loss(g, group, &critics)
         })?;
@@ -116,14 +116,14 @@ impl Learner {
     /// gradient sharing nothing crosses groups before the step, so each
     /// group steps in its own worker right after its backward pass; otherwise
     /// the gradients are first averaged over workers and mixed over the graph.
-    fn step_groups<F>(&mut self, kind: NetworkGroup, loss: F) -> Result<Vec<f32>, NnError>
+    fn step_groups<F>(&mut self, kind: NetworkKind, loss: F) -> Result<Vec<f32>, NnError>
     where
         F: Fn(usize, &Group) -> Result<Tensor<1>, NnError> + Sync,
     {
         let fused = self.comm.workers() <= 1 && !self.sharing.mixes_gradients(kind);
         let lr = match kind {
-            NetworkGroup::Actors => self.net.lr_actor,
-            NetworkGroup::Critics => self.net.lr_critic,
+            NetworkKind::Actors => self.net.lr_actor,
+            NetworkKind::Critics => self.net.lr_critic,
         };
         let results = self.per_group(|g, group| {
             let l = loss(g, group)?;
@@ -140,7 +140,7 @@ impl Learner {
     /// Worker averaging and gradient-mode sharing, then every group's optimiser step.
     fn reduce_mix_optimize(
         &mut self,
-        kind: NetworkGroup,
+        kind: NetworkKind,
         lr: f64,
         mut grads: Vec<GradientsParams>,
     ) -> Result<(), NnError> {
