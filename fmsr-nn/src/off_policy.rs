@@ -4,7 +4,7 @@
 //! its own state). MADDPG, MATD3 and MASAC are the three rules
 //! ([`crate::Maddpg`] is `OffPolicy<MaddpgRule>`, and so on); everything else,
 //! the networks, normalisers, HER replay, information sharing, worker
-//! averaging and saved states, is the shared [`crate::learner`].
+//! averaging and saved states, is the shared learner (the crate's `learner` module).
 //!
 //! One update cycle (Algorithm 1, stages 2-4):
 //!
