@@ -151,3 +151,132 @@ impl<E: Env, O: OccupancyEstimator, S: ShadowReward> RewardModel for TrainingRew
         self.shadow.rewards.step_bounds(self.shadow.reward_range)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+    use crate::shadow::{Averaging, ResolvedAssignment};
+    use crate::spec::{AgentSpec, JointAction, Observation, StepInfo, StepOutcome};
+
+    /// A goal reward only: `-|achieved - desired|` on one coordinate.
+    #[derive(Debug)]
+    struct Goal(EnvSpec);
+
+    impl Env for Goal {
+        type Error = std::io::Error;
+        fn spec(&self) -> &EnvSpec {
+            &self.0
+        }
+        fn reset(&mut self, _: u64) -> Result<Observation, Self::Error> {
+            Err(std::io::Error::other("not stepped in these tests"))
+        }
+        fn step(&mut self, _: &JointAction) -> Result<StepOutcome, Self::Error> {
+            Err(std::io::Error::other("not stepped in these tests"))
+        }
+        fn goal_distance(&self, a: &[f32], d: &[f32]) -> f32 {
+            (a[0] - d[0]).abs()
+        }
+        fn goal_reward(&self, a: &[f32], d: &[f32]) -> f32 {
+            -self.goal_distance(a, d)
+        }
+    }
+
+    fn spec(agents: usize, features: usize) -> EnvSpec {
+        EnvSpec {
+            agents: (0..agents)
+                .map(|i| AgentSpec { name: format!("a{i}"), action_slots: vec![i], local_obs_dim: 1 })
+                .collect(),
+            action_dim: agents,
+            obs_dim: 1,
+            goal_dim: 1,
+            episode_len: 4,
+            features: (0..features).map(|k| format!("f{k}")).collect(),
+            reward_range: (-2.0, 0.0),
+        }
+    }
+
+    fn shadow(spec: &EnvSpec, features: Vec<Vec<usize>>, alpha: f64) -> ShadowRewards {
+        let n = spec.agents.len();
+        let assignment = ResolvedAssignment { task_weights: vec![1.0; n], features };
+        let rewards = AgentRewards::new(assignment, LogUtility::default(), alpha).unwrap();
+        let occupancy = DiscountedOccupancy::new(spec.features.len(), 0.9, Averaging::Window { episodes: 3 }).unwrap();
+        ShadowRewards::new(spec, occupancy, rewards).unwrap()
+    }
+
+    fn episode(goals: &[(f32, f32)], phis: &[Vec<f32>]) -> Episode {
+        let mut e = Episode::with_capacity(phis.len());
+        let obs = |(a, d): (f32, f32)| Observation {
+            global: vec![0.0],
+            locals: vec![],
+            achieved_goal: vec![a],
+            desired_goal: vec![d],
+        };
+        e.observations.push(obs((0.0, 0.0)));
+        for (g, phi) in goals.iter().zip(phis) {
+            e.observations.push(obs(*g));
+            e.infos.push(StepInfo { features: phi.clone(), ..StepInfo::default() });
+            e.actions.push(JointAction(vec![]));
+        }
+        e
+    }
+
+    // Guards that the trainer's statistics and the learners' targets see one
+    // reward (eq. 7): an episode's returns from `reward_sums` are the sums of
+    // what the learners' RewardModel gives for its steps, under one estimate.
+    proptest! {
+        #[test]
+        fn reward_sums_add_up_the_learners_rewards(
+            steps in prop::collection::vec((-1.0f32..1.0, -1.0f32..1.0, 0.0f32..=1.0, 0.0f32..=1.0), 1..8),
+            alpha in 0.0f64..1.0,
+        ) {
+            let spec = spec(3, 2);
+            let mut shadow = shadow(&spec, vec![vec![0], vec![1], vec![0, 1]], alpha);
+            let goals: Vec<(f32, f32)> = steps.iter().map(|s| (s.0, s.1)).collect();
+            let phis: Vec<Vec<f32>> = steps.iter().map(|s| vec![s.2, s.3]).collect();
+            shadow.observe_episode(&phis).unwrap();
+            let env = Goal(spec);
+            let sums = shadow.reward_sums(&env, &episode(&goals, &phis));
+            let model = shadow.reward_model(&env);
+            let mut expected = [0.0f64; 3];
+            for ((a, d), phi) in goals.iter().zip(&phis) {
+                let mut out = [0.0f32; 3];
+                model.agent_rewards(model.goal_reward(&[*a], &[*d]), phi, &mut out);
+                for (e, o) in expected.iter_mut().zip(out) {
+                    *e += f64::from(o);
+                }
+            }
+            for (got, want) in sums.returns.iter().zip(expected) {
+                prop_assert!((got - want).abs() <= 1e-9 * (1.0 + want.abs()), "{got} != {want}");
+            }
+            for (i, (lo, hi)) in model.reward_bounds().into_iter().enumerate() {
+                let per_step = sums.returns[i] / steps.len() as f64;
+                prop_assert!(lo <= per_step + 1e-9 && per_step <= hi + 1e-9, "agent {i}: {per_step} outside [{lo}, {hi}]");
+            }
+        }
+    }
+
+    #[test]
+    fn shadow_rewards_of_another_spec_are_refused() {
+        let spec = spec(2, 1);
+        let rewards = |n: usize| {
+            AgentRewards::new(
+                ResolvedAssignment { task_weights: vec![1.0; n], features: vec![vec![]; n] },
+                LogUtility::default(),
+                0.1,
+            )
+            .unwrap()
+        };
+        let occupancy = |k: usize| DiscountedOccupancy::new(k, 0.9, Averaging::default()).unwrap();
+        assert!(matches!(
+            ShadowRewards::new(&spec, occupancy(2), rewards(2)),
+            Err(CoreError::Dimension { what: "occupancy features", expected: 1, found: 2 })
+        ));
+        assert!(matches!(
+            ShadowRewards::new(&spec, occupancy(1), rewards(3)),
+            Err(CoreError::Dimension { what: "reward assignment agents", expected: 2, found: 3 })
+        ));
+        assert!(ShadowRewards::new(&spec, occupancy(1), rewards(2)).is_ok());
+    }
+}
