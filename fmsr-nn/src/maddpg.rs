@@ -21,7 +21,7 @@ use crate::config::MaddpgConfig;
 use crate::error::NnError;
 use crate::learner::deterministic::{actor_step, deterministic_act, target_actions};
 use crate::learner::{BatchTensors, Learner, LearnerParts};
-use crate::off_policy::{OffPolicy, StepLosses, UpdateRule};
+use crate::off_policy::{OffPolicy, StepLosses, UpdateRule, no_values};
 
 /// Multi-agent DDPG; see the [module docs](self).
 ///
@@ -98,5 +98,20 @@ impl UpdateRule for MaddpgRule {
 
     fn targets(&self) -> (f64, bool) {
         (self.config.polyak, true)
+    }
+
+    /// No state of its own beside the config.
+    type State = ();
+
+    fn state(&self) {}
+
+    fn check(&self, (): &(), _: usize) -> Result<(), NnError> {
+        Ok(())
+    }
+
+    fn restore(&mut self, (): ()) {}
+
+    fn state_from_values(&self, values: &[f64], _: usize) -> Result<(), NnError> {
+        no_values(Self::NAME, values)
     }
 }

@@ -55,11 +55,17 @@ impl ScalarAdam {
 /// Multi-agent SAC; see the [module docs](self).
 pub type Masac = OffPolicy<MasacRule>;
 
-/// MASAC's update rule: its config and every agent's entropy temperature
-/// with the Adam state that tunes it.
+/// MASAC's update rule: its config and its own state.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MasacRule {
     config: MasacConfig,
+    state: MasacState,
+}
+
+/// What MASAC learns beside the networks: every agent's log entropy
+/// temperature and the Adam state that tunes it (saved with the learner).
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub(crate) struct MasacState {
     log_alpha: Vec<f64>,
     alpha_adam: Vec<ScalarAdam>,
 }
@@ -86,7 +92,7 @@ impl Masac {
     /// # Errors
     /// [`NnError::InvalidConfig`] / [`NnError::Sharing`] naming the first impossible setting.
     pub fn new(parts: LearnerParts, config: MasacConfig) -> Result<Self, NnError> {
-        Self::with_rule(parts, MasacRule { config, log_alpha: Vec::new(), alpha_adam: Vec::new() })
+        Self::with_rule(parts, MasacRule { config, state: MasacState::default() })
     }
 
     /// The algorithm's config.
@@ -98,7 +104,7 @@ impl Masac {
     /// Each agent's entropy temperature `alpha_i`.
     #[must_use]
     pub fn temperatures(&self) -> Vec<f64> {
-        self.rule.log_alpha.iter().map(|l| l.exp()).collect()
+        self.rule.state.log_alpha.iter().map(|l| l.exp()).collect()
     }
 }
 
@@ -109,7 +115,8 @@ impl MasacRule {
 
     /// One Adam step of every agent's log temperature towards its target entropy.
     fn update_temperatures(&mut self, mean_logp: &[f32], dims: &[usize], betas: (f64, f64, f64)) {
-        for (((la, adam), &lp), &d) in self.log_alpha.iter_mut().zip(&mut self.alpha_adam).zip(mean_logp).zip(dims) {
+        let s = &mut self.state;
+        for (((la, adam), &lp), &d) in s.log_alpha.iter_mut().zip(&mut s.alpha_adam).zip(mean_logp).zip(dims) {
             let target = self.config.target_entropy_per_dim * d as f64;
             let grad = -(f64::from(lp) + target);
             adam.step(la, grad, self.config.lr_temperature, betas);
@@ -127,8 +134,10 @@ impl UpdateRule for MasacRule {
     }
 
     fn init(&mut self, agents: usize) {
-        self.log_alpha = vec![self.config.initial_temperature.ln(); agents];
-        self.alpha_adam = vec![ScalarAdam::default(); agents];
+        self.state = MasacState {
+            log_alpha: vec![self.config.initial_temperature.ln(); agents],
+            alpha_adam: vec![ScalarAdam::default(); agents],
+        };
     }
 
     fn act(&mut self, l: &mut Learner, inputs: &[Vec<f32>], n: usize, mode: ActMode) -> Result<PolicyOutput, NnError> {
@@ -169,7 +178,7 @@ impl UpdateRule for MasacRule {
     fn step(&mut self, l: &mut Learner, b: &BatchTensors) -> Result<StepLosses, NnError> {
         let (n, na, bounds) = (b.n, l.num_agents(), self.bounds());
         let device = l.device.clone();
-        let alphas: Vec<f32> = self.log_alpha.iter().map(|v| v.exp() as f32).collect();
+        let alphas: Vec<f32> = self.state.log_alpha.iter().map(|v| v.exp() as f32).collect();
         let alpha: Vec<Tensor<3>> = l
             .groups
             .iter()
@@ -226,28 +235,39 @@ impl UpdateRule for MasacRule {
         (self.config.polyak, false)
     }
 
-    /// The log temperatures, then each agent's Adam state `(t, m, v)`.
-    fn save_extra(&self) -> Vec<f64> {
-        let mut values = self.log_alpha.clone();
-        for a in &self.alpha_adam {
-            values.extend([a.t as f64, a.m, a.v]);
-        }
-        values
+    type State = MasacState;
+
+    fn state(&self) -> MasacState {
+        self.state.clone()
     }
 
-    fn load_extra(&mut self, values: &[f64]) -> Result<(), NnError> {
-        let n = self.log_alpha.len();
-        if values.len() != 4 * n {
+    fn check(&self, state: &MasacState, agents: usize) -> Result<(), NnError> {
+        let (a, b) = (state.log_alpha.len(), state.alpha_adam.len());
+        if a != agents || b != agents {
+            return Err(NnError::StateMismatch {
+                what: "temperature state (log temperatures, Adam states)".into(),
+                expected: format!("{agents}, {agents}"),
+                found: format!("{a}, {b}"),
+            });
+        }
+        Ok(())
+    }
+
+    fn restore(&mut self, state: MasacState) {
+        self.state = state;
+    }
+
+    /// Format 4 kept the log temperatures, then each agent's Adam state `(t, m, v)`.
+    fn state_from_values(&self, values: &[f64], agents: usize) -> Result<MasacState, NnError> {
+        if values.len() != 4 * agents {
             return Err(NnError::StateMismatch {
                 what: "temperature state".into(),
-                expected: (4 * n).to_string(),
+                expected: (4 * agents).to_string(),
                 found: values.len().to_string(),
             });
         }
-        self.log_alpha.copy_from_slice(&values[..n]);
-        for (a, c) in self.alpha_adam.iter_mut().zip(values[n..].chunks_exact(3)) {
-            *a = ScalarAdam { t: c[0] as u64, m: c[1], v: c[2] };
-        }
-        Ok(())
+        let (log_alpha, adam) = values.split_at(agents);
+        let alpha_adam = adam.chunks_exact(3).map(|c| ScalarAdam { t: c[0] as u64, m: c[1], v: c[2] }).collect();
+        Ok(MasacState { log_alpha: log_alpha.to_vec(), alpha_adam })
     }
 }

@@ -17,7 +17,7 @@ use crate::error::NnError;
 use crate::explore::gaussian;
 use crate::learner::deterministic::{actor_step, deterministic_act, target_actions};
 use crate::learner::{BatchTensors, Learner, LearnerParts, matrix};
-use crate::off_policy::{OffPolicy, StepLosses, UpdateRule};
+use crate::off_policy::{OffPolicy, StepLosses, UpdateRule, no_values};
 
 /// Multi-agent TD3; see the [module docs](self).
 pub type Matd3 = OffPolicy<Matd3Rule>;
@@ -75,5 +75,20 @@ impl UpdateRule for Matd3Rule {
 
     fn targets(&self) -> (f64, bool) {
         (self.config.polyak, true)
+    }
+
+    /// No state of its own beside the config.
+    type State = ();
+
+    fn state(&self) {}
+
+    fn check(&self, (): &(), _: usize) -> Result<(), NnError> {
+        Ok(())
+    }
+
+    fn restore(&mut self, (): ()) {}
+
+    fn state_from_values(&self, values: &[f64], _: usize) -> Result<(), NnError> {
+        no_values(Self::NAME, values)
     }
 }

@@ -22,8 +22,12 @@ use fmsr_core::algorithm::{Algorithm, RewardModel, UpdateStats};
 use fmsr_core::policy::{ActMode, Policy, PolicyOutput, PolicyState};
 use fmsr_core::replay::Episode;
 
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+
 use crate::error::NnError;
 use crate::learner::{BatchTensors, Learner, LearnerParts};
+use crate::state::SavedRule;
 
 /// What distinguishes one off-policy algorithm; see the [module docs](self).
 ///
@@ -64,26 +68,39 @@ pub(crate) trait UpdateRule: std::fmt::Debug + Send {
     /// How the targets move after a cycle: `polyak` and whether the actors have targets.
     fn targets(&self) -> (f64, bool);
 
-    /// The rule's own state beside the networks, as saved (learner state
-    /// format 4 keeps it as a list of values; empty for rules without one).
-    fn save_extra(&self) -> Vec<f64> {
-        Vec::new()
-    }
+    /// The rule's own state beside the networks, saved with them (learner
+    /// state format 5: postcard bytes of this record).
+    type State: Serialize + DeserializeOwned;
 
-    /// Restores what [`UpdateRule::save_extra`] wrote.
+    /// The rule's own state, to save.
+    fn state(&self) -> Self::State;
+
+    /// Checks a saved state against this rule for `agents` agents before anything is restored.
+    ///
+    /// # Errors
+    /// [`NnError::StateMismatch`] naming what does not fit.
+    fn check(&self, state: &Self::State, agents: usize) -> Result<(), NnError>;
+
+    /// Restores a checked state.
+    fn restore(&mut self, state: Self::State);
+
+    /// The state of a format-4 learner state, which kept it as a list of values.
     ///
     /// # Errors
     /// [`NnError::StateMismatch`] for values that do not fit.
-    fn load_extra(&mut self, values: &[f64]) -> Result<(), NnError> {
-        if values.is_empty() {
-            return Ok(());
-        }
-        Err(NnError::StateMismatch {
-            what: format!("{} state", Self::NAME),
-            expected: "no values".into(),
-            found: values.len().to_string(),
-        })
+    fn state_from_values(&self, values: &[f64], agents: usize) -> Result<Self::State, NnError>;
+}
+
+/// [`UpdateRule::state_from_values`] of a rule without state of its own: no values.
+pub(crate) fn no_values(name: &str, values: &[f64]) -> Result<(), NnError> {
+    if values.is_empty() {
+        return Ok(());
     }
+    Err(NnError::StateMismatch {
+        what: format!("{name} state"),
+        expected: "no values".into(),
+        found: values.len().to_string(),
+    })
 }
 
 /// Each agent's losses of one gradient step.
@@ -245,12 +262,24 @@ impl<R: UpdateRule> Algorithm for OffPolicy<R> {
     }
 
     fn save_state(&self, include_storage: bool) -> Result<Vec<u8>, NnError> {
-        self.learner.save(R::NAME, include_storage, self.rule.save_extra())
+        let rule = postcard::to_allocvec(&self.rule.state())
+            .map_err(|e| NnError::Backend { what: "update rule state", reason: e.to_string() })?;
+        self.learner.save(R::NAME, include_storage, rule)
     }
 
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), NnError> {
-        let extra = self.learner.load(R::NAME, bytes)?;
-        self.rule.load_extra(&extra)
+        let (rule, agents) = (&self.rule, self.learner.num_agents());
+        let state = self.learner.load(R::NAME, bytes, |saved| {
+            let state = match saved {
+                SavedRule::Typed(bytes) => postcard::from_bytes(&bytes)
+                    .map_err(|e| NnError::CorruptState { offset: 0, reason: format!("{} state: {e}", R::NAME) })?,
+                SavedRule::Values(values) => rule.state_from_values(&values, agents)?,
+            };
+            rule.check(&state, agents)?;
+            Ok(state)
+        })?;
+        self.rule.restore(state);
+        Ok(())
     }
 
     fn storage_capacity(&self) -> usize {

@@ -25,11 +25,14 @@ use crate::normalizer::Normalizer;
 
 const MAGIC: &[u8; 8] = b"FMSRNNST";
 
-/// The version of [`LearnerState`]'s layout: 4 since the agents' networks
-/// are stacked in groups, each group with one optimiser record per kind.
-/// States of version 3 (one optimiser record per agent) are refused with
-/// [`NnError::CorruptState`] naming both versions.
-const STATE_FORMAT: u32 = 4;
+/// The version of [`LearnerState`]'s layout: 5 since the update rule's own
+/// state is a typed record (postcard bytes of the rule's `State`); 4 kept it
+/// as a list of values, and version-4 states are still read (the rule
+/// converts the values). 4 began with the agents' networks stacked in groups,
+/// each group with one optimiser record per kind; states of version 3 (one
+/// optimiser record per agent) are refused with [`NnError::CorruptState`]
+/// naming both versions.
+const STATE_FORMAT: u32 = 5;
 
 /// How a state is framed: [`fmsr_core::persist`]'s header (magic, version,
 /// checksum) with the kind of state named in errors.
@@ -41,6 +44,36 @@ struct Framing {
 
 /// The whole learner ([`LearnerState`]).
 const LEARNER: Framing = Framing { magic: MAGIC, version: STATE_FORMAT, what: "learner state" };
+
+/// The whole learner as format 4 wrote it (the rule's state as values).
+const LEARNER_V4: Framing = Framing { magic: MAGIC, version: 4, what: "learner state (format 4)" };
+
+/// The update rule's own state as a saved learner holds it.
+pub(crate) enum SavedRule {
+    /// Format 5: the postcard bytes of the rule's typed state.
+    Typed(Vec<u8>),
+    /// Format 4: a list of values.
+    Values(Vec<f64>),
+}
+
+/// A learner state of format 5, or of format 4 with its rule state as values.
+fn decode_learner(bytes: &[u8]) -> Result<(LearnerStateOf<()>, SavedRule), NnError> {
+    match persist::decode::<LearnerState>(MAGIC, STATE_FORMAT, bytes) {
+        Err(FormatError::Version { found: 4, .. }) => {
+            let v4: LearnerStateOf<Vec<f64>> = decode(&LEARNER_V4, bytes)?;
+            let (state, values) = v4.split();
+            Ok((state, SavedRule::Values(values)))
+        }
+        Ok(v5) => {
+            let (state, bytes) = v5.split();
+            Ok((state, SavedRule::Typed(bytes)))
+        }
+        Err(_) => decode::<LearnerState>(&LEARNER, bytes).map(|v5| {
+            let (state, bytes) = v5.split();
+            (state, SavedRule::Typed(bytes))
+        }),
+    }
+}
 
 /// The acting half ([`PolicyState`]): version 1.
 const POLICY: Framing = Framing { magic: b"FMSRNNPO", version: 1, what: "policy state" };
@@ -65,8 +98,8 @@ fn decode<T: DeserializeOwned>(framing: &Framing, bytes: &[u8]) -> Result<T, NnE
 }
 
 impl Learner {
-    /// The learner's state; `extra` carries the algorithm's own.
-    pub(crate) fn save(&self, algorithm: &str, include_storage: bool, extra: Vec<f64>) -> Result<Vec<u8>, NnError> {
+    /// The learner's state; `rule` carries the update rule's own (its typed state, postcard).
+    pub(crate) fn save(&self, algorithm: &str, include_storage: bool, rule: Vec<u8>) -> Result<Vec<u8>, NnError> {
         let mut agents = Vec::with_capacity(self.num_agents());
         let (mut actor_optim, mut critic_optim) = (Vec::new(), Vec::new());
         for group in &self.groups {
@@ -99,14 +132,21 @@ impl Learner {
             rng: self.rng.clone(),
             steps: self.steps,
             replay: include_storage.then(|| self.replay.clone()),
-            extra,
+            rule,
         };
         encode(&LEARNER, &state)
     }
 
-    /// Restores a state written by [`Learner::save`]; returns its `extra`.
-    pub(crate) fn load(&mut self, algorithm: &str, bytes: &[u8]) -> Result<Vec<f64>, NnError> {
-        let state: LearnerState = decode(&LEARNER, bytes)?;
+    /// Restores a state written by [`Learner::save`] (format 5) or by format
+    /// 4. `rule` turns the saved rule state into the rule's and checks it
+    /// before anything of this learner changes; its result is returned.
+    pub(crate) fn load<S>(
+        &mut self,
+        algorithm: &str,
+        bytes: &[u8],
+        rule: impl FnOnce(SavedRule) -> Result<S, NnError>,
+    ) -> Result<S, NnError> {
+        let (state, saved) = decode_learner(bytes)?;
         let mismatch =
             |what: &str, expected: String, found: String| NnError::StateMismatch { what: what.into(), expected, found };
         if state.algorithm != algorithm {
@@ -150,6 +190,7 @@ impl Learner {
                 .from_bytes(Bytes::from_bytes_vec(bytes.to_vec()))
                 .map_err(|e| NnError::CorruptState { offset: 0, reason: format!("{what} optimizer: {e:?}") })
         };
+        let rule = rule(saved)?;
         let mut optims = Vec::with_capacity(self.groups.len());
         for (g, group) in self.groups.iter().enumerate() {
             optims.push((
@@ -169,7 +210,7 @@ impl Learner {
         if let Some(replay) = state.replay {
             self.replay = replay;
         }
-        Ok(state.extra)
+        Ok(rule)
     }
 
     /// Checks agent `i`'s saved networks and normaliser against this learner's shapes.
@@ -257,8 +298,13 @@ struct AgentState {
     actor_norm: Normalizer,
 }
 
+/// A learner state of format 5.
+type LearnerState = LearnerStateOf<Vec<u8>>;
+
+/// The layout of formats 4 and 5, which differ only in the rule's state, the
+/// last field: values (`R = Vec<f64>`, 4) or postcard bytes (`Vec<u8>`, 5).
 #[derive(Serialize, Deserialize)]
-struct LearnerState {
+struct LearnerStateOf<R> {
     algorithm: String,
     agents: Vec<AgentState>,
     /// The number of agents of each group ([`crate::Stacking`]).
@@ -271,7 +317,38 @@ struct LearnerState {
     rng: ChaCha8Rng,
     steps: u64,
     replay: Option<ReplayBuffer>,
-    extra: Vec<f64>,
+    rule: R,
+}
+
+impl<R> LearnerStateOf<R> {
+    /// The learner's part and the rule's.
+    fn split(self) -> (LearnerStateOf<()>, R) {
+        let LearnerStateOf {
+            algorithm,
+            agents,
+            group_sizes,
+            actor_optim,
+            critic_optim,
+            critic_norm,
+            rng,
+            steps,
+            replay,
+            rule,
+        } = self;
+        let state = LearnerStateOf {
+            algorithm,
+            agents,
+            group_sizes,
+            actor_optim,
+            critic_optim,
+            critic_norm,
+            rng,
+            steps,
+            replay,
+            rule: (),
+        };
+        (state, rule)
+    }
 }
 
 fn optim_bytes(o: &ModuleOptimizer) -> Result<Vec<u8>, NnError> {
@@ -315,7 +392,7 @@ struct ActorState {
 /// # Errors
 /// [`NnError::CorruptState`] when `learner_state` is not a learner state of this build.
 pub fn policy_from_learner_state(learner_state: &[u8]) -> Result<Vec<u8>, NnError> {
-    let state: LearnerState = decode(&LEARNER, learner_state)?;
+    let (state, _) = decode_learner(learner_state)?;
     let actors = state.agents.into_iter().map(|a| ActorState { actor: a.actor, actor_norm: a.actor_norm }).collect();
     encode(&POLICY, &PolicyState { algorithm: state.algorithm, actors })
 }
