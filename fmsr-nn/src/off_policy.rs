@@ -1,7 +1,7 @@
 //! The one off-policy learner: [`OffPolicy<R>`] implements [`Policy`],
-//! [`Algorithm`] and [`PolicyState`] once, over an update rule (the crate's `UpdateRule` trait) that holds
-//! only what makes an algorithm itself (its config, its losses and targets,
-//! its own state). MADDPG, MATD3 and MASAC are the three rules
+//! [`Algorithm`] and [`PolicyState`] once, over an update rule (the crate's
+//! `UpdateRule` trait) that holds only what makes an algorithm itself (its
+//! config, its losses and targets, its own state). MADDPG, MATD3 and MASAC are the three rules
 //! ([`crate::Maddpg`] is `OffPolicy<MaddpgRule>`, and so on); everything else,
 //! the networks, normalisers, HER replay, information sharing, worker
 //! averaging and saved states, is the shared learner (the crate's `learner` module).
