@@ -3,8 +3,8 @@
 //! so a program builds, trains, evaluates and renders the hand with one code
 //! path whatever the engine ([`ShadowHandConfig::init_engine`]).
 //!
-//! The dispatch is a `match` per physics call, a few per substep: nothing
-//! against the cost of a substep.
+//! The dispatch is one `match` per physics call, a few calls per env step,
+//! each of which runs `substeps` (20 in the paper's configs) physics steps.
 
 use fmsr_core::env::ObjectContacts;
 use serde::{Deserialize, Serialize};
