@@ -57,21 +57,14 @@ pub(crate) enum SavedRule {
 }
 
 /// A learner state of format 5, or of format 4 with its rule state as values.
-fn decode_learner(bytes: &[u8]) -> Result<(LearnerStateOf<()>, SavedRule), NnError> {
+fn decode_learner(bytes: &[u8]) -> Result<(LearnerBody, SavedRule), NnError> {
     match persist::decode::<LearnerState>(MAGIC, STATE_FORMAT, bytes) {
         Err(FormatError::Version { found: 4, .. }) => {
             let v4: LearnerStateOf<Vec<f64>> = decode(&LEARNER_V4, bytes)?;
-            let (state, values) = v4.split();
-            Ok((state, SavedRule::Values(values)))
+            Ok((v4.learner, SavedRule::Values(v4.rule)))
         }
-        Ok(v5) => {
-            let (state, bytes) = v5.split();
-            Ok((state, SavedRule::Typed(bytes)))
-        }
-        Err(_) => decode::<LearnerState>(&LEARNER, bytes).map(|v5| {
-            let (state, bytes) = v5.split();
-            (state, SavedRule::Typed(bytes))
-        }),
+        Ok(v5) => Ok((v5.learner, SavedRule::Typed(v5.rule))),
+        Err(_) => decode::<LearnerState>(&LEARNER, bytes).map(|v5| (v5.learner, SavedRule::Typed(v5.rule))),
     }
 }
 
@@ -122,7 +115,7 @@ impl Learner {
             actor_optim.push(optim_bytes(&nets.actor_optim)?);
             critic_optim.push(optim_bytes(&nets.critic_optim)?);
         }
-        let state = LearnerState {
+        let learner = LearnerBody {
             algorithm: algorithm.to_owned(),
             agents,
             group_sizes: self.groups.iter().map(|g| g.len() as u64).collect(),
@@ -132,9 +125,8 @@ impl Learner {
             rng: self.rng.clone(),
             steps: self.steps,
             replay: include_storage.then(|| self.replay.clone()),
-            rule,
         };
-        encode(&LEARNER, &state)
+        encode(&LEARNER, &LearnerState { learner, rule })
     }
 
     /// Restores a state written by [`Learner::save`] (format 5) or by format
@@ -303,8 +295,17 @@ type LearnerState = LearnerStateOf<Vec<u8>>;
 
 /// The layout of formats 4 and 5, which differ only in the rule's state, the
 /// last field: values (`R = Vec<f64>`, 4) or postcard bytes (`Vec<u8>`, 5).
+/// postcard writes a nested struct as its fields in order, so this is the
+/// flat layout format 4 wrote.
 #[derive(Serialize, Deserialize)]
 struct LearnerStateOf<R> {
+    learner: LearnerBody,
+    rule: R,
+}
+
+/// Everything of a learner state but the update rule's own state.
+#[derive(Serialize, Deserialize)]
+struct LearnerBody {
     algorithm: String,
     agents: Vec<AgentState>,
     /// The number of agents of each group ([`crate::Stacking`]).
@@ -317,38 +318,6 @@ struct LearnerStateOf<R> {
     rng: ChaCha8Rng,
     steps: u64,
     replay: Option<ReplayBuffer>,
-    rule: R,
-}
-
-impl<R> LearnerStateOf<R> {
-    /// The learner's part and the rule's.
-    fn split(self) -> (LearnerStateOf<()>, R) {
-        let LearnerStateOf {
-            algorithm,
-            agents,
-            group_sizes,
-            actor_optim,
-            critic_optim,
-            critic_norm,
-            rng,
-            steps,
-            replay,
-            rule,
-        } = self;
-        let state = LearnerStateOf {
-            algorithm,
-            agents,
-            group_sizes,
-            actor_optim,
-            critic_optim,
-            critic_norm,
-            rng,
-            steps,
-            replay,
-            rule: (),
-        };
-        (state, rule)
-    }
 }
 
 fn optim_bytes(o: &ModuleOptimizer) -> Result<Vec<u8>, NnError> {
