@@ -41,6 +41,8 @@ enum Command {
     /// The Shadow Hand model cache (the model comes from the gymnasium-robotics wheel on PyPI).
     #[command(subcommand)]
     Assets(AssetsCommand),
+    /// List the network devices this build and machine can use (`cpu`, then each GPU adapter the drivers report).
+    Devices,
 }
 
 #[derive(Debug, Subcommand)]
@@ -215,6 +217,12 @@ fn main() -> Result<()> {
         Command::Assets(AssetsCommand::Fetch { dir }) => {
             let assets = fmsr_envs::shadow_hand::assets::fetch_hand_assets(dir.as_deref())?;
             println!("{}", assets.root.display());
+            Ok(())
+        }
+        Command::Devices => {
+            for device in fmsr_nn::device::available() {
+                println!("{device}");
+            }
             Ok(())
         }
         Command::Assets(AssetsCommand::Path) => {
