@@ -8,6 +8,9 @@
 //! or `vulkan:0` with the matching cargo feature, see `fmsr_nn::device`),
 //! stacked as `FMSR_STACKING` says (`auto`, default; `per_agent`; `all`).
 //!
+//! On a device other than the CPU it first checks that three joint updates
+//! there equal those on the CPU within float tolerance, and prints the outcome.
+//!
 //! Run with `cargo bench --bench ddpg_update`. With `FMSR_PYTORCH_REFERENCE=1`
 //! it also runs `scripts/pytorch_reference/run.sh` (a venv with the PyTorch
 //! CPU wheel, timing the same update in Python) and prints our time / PyTorch
@@ -102,9 +105,60 @@ fn stacking() -> Stacking {
 }
 
 fn learner(threads: usize) -> Maddpg {
-    let net = NetworkConfig::new().with_threads(threads).with_stacking(stacking());
-    let parts = LearnerParts::new(layout(), net, ReplayConfig::default(), 0.99).with_device(device());
+    learner_on(threads, device(), stacking())
+}
+
+fn learner_on(threads: usize, device: fmsr_nn::Device, stacking: Stacking) -> Maddpg {
+    let net = NetworkConfig::new().with_threads(threads).with_stacking(stacking);
+    let parts = LearnerParts::new(layout(), net, ReplayConfig::default(), 0.99).with_device(device);
     Maddpg::new(parts, MaddpgConfig::new()).expect("a valid learner")
+}
+
+/// Losses of three joint updates at batch 256 and the final parameters of every agent.
+fn three_updates(device: fmsr_nn::Device, stacking: Stacking) -> (Vec<f32>, Vec<f32>) {
+    let layout = layout();
+    let mut l = learner_on(1, device, stacking);
+    let mut losses = Vec::new();
+    for step in 0..3 {
+        let mut b = batch(&layout, 256);
+        b.obs = values(b.obs.len(), 100 + step);
+        let (c, a) = l.learn_batch(&b, &BOUNDS).expect("learn");
+        losses.extend(c.into_iter().chain(a));
+    }
+    let params = (0..ACTION_DIMS.len()).flat_map(|i| {
+        let (a, c) = l.params(i).expect("params");
+        a.into_iter().chain(c)
+    });
+    (losses, params.collect())
+}
+
+/// The largest `|a - b| / (atol + rtol |b|)`: at most 1 is within tolerance.
+fn worst(a: &[f32], b: &[f32], atol: f32, rtol: f32) -> f32 {
+    assert_eq!(a.len(), b.len());
+    a.iter().zip(b).map(|(x, y)| (x - y).abs() / (atol + rtol * y.abs())).fold(0.0, f32::max)
+}
+
+/// Before timing a device other than the CPU: three joint updates on it
+/// against burn's flex CPU backend, one stack per agent, with the tolerances
+/// of tests/gpu.rs (losses 1e-4 relative; parameters 1e-3 relative + 2e-3).
+/// Prints the outcome; a device that computes something else is still timed.
+/// `FMSR_PARITY=0` skips the check, `FMSR_PARITY=1` runs it on the CPU too
+/// (with `FMSR_STACKING=all`: the stacked network against one per agent).
+fn parity(_c: &mut Criterion) {
+    let on_cpu = std::env::var("FMSR_DEVICE").map_or(true, |d| d == "cpu");
+    match std::env::var("FMSR_PARITY").as_deref() {
+        Ok("0") => return,
+        Ok("1") => {}
+        _ if on_cpu => return,
+        _ => {}
+    }
+    let (dev_losses, dev_params) = three_updates(device(), stacking());
+    let (cpu_losses, cpu_params) = three_updates(fmsr_nn::Device::flex(), Stacking::PerAgent);
+    let (l, p) = (worst(&dev_losses, &cpu_losses, 1e-5, 1e-4), worst(&dev_params, &cpu_params, 2e-3, 1e-3));
+    let verdict = if l <= 1.0 && p <= 1.0 { "equal within tolerance" } else { "DIFFERENT" };
+    println!(
+        "parity with the CPU, three joint updates at batch 256: {verdict} (losses {l:.3}, parameters {p:.3}; 1 = tolerance)"
+    );
 }
 
 /// Q-target bounds of the 6 agents (wide: nothing is clipped).
@@ -189,6 +243,6 @@ criterion_group! {
     name = benches;
     // No plots: criterion's plotters backend needs system fonts that CI images may lack.
     config = Criterion::default().without_plots();
-    targets = joint_update, pytorch_reference
+    targets = parity, joint_update, pytorch_reference
 }
 criterion_main!(benches);

@@ -12,7 +12,9 @@
 //! The last line is `speedup X.XX` of setting 2 over setting 1.
 //!
 //! `cargo bench --bench paper_epoch`; `FMSR_DEVICE=wgpu:0` (with `--features
-//! wgpu`) puts the networks on a GPU.
+//! wgpu`) puts the networks on a GPU. `FMSR_EPOCH_CONFIG` names another
+//! experiment file (a bench binary carried to another machine has no
+//! checkout at the path it was built in).
 
 use std::time::Instant;
 
@@ -25,7 +27,10 @@ const PAPER_CYCLES: usize = 25;
 /// Seconds of `cycles` cycles of the paper config with `envs` envs, `threads`
 /// stepping threads and `learner_threads` update threads.
 fn time_cycles(cycles: usize, envs: usize, threads: usize, learner_threads: usize) -> Result<(f64, EpochStats)> {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/block_dense_fmsr_is.toml");
+    let path = match std::env::var_os("FMSR_EPOCH_CONFIG") {
+        Some(path) => std::path::PathBuf::from(path),
+        None => std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/block_dense_fmsr_is.toml"),
+    };
     let mut config = ExperimentConfig::load(&path)?;
     config.trainer.epochs = 1;
     config.trainer.cycles = cycles;
