@@ -1,7 +1,11 @@
 # Sourced by the steps that run on the GPU machine (start.sh, finish.sh): the
-# packed binary, model, Vulkan loader and MuJoCo library of scripts/gpu/pack.sh.
+# packed binaries (unpacked from bin.tar.xz on first use), model, Vulkan loader and MuJoCo library of scripts/gpu/pack.sh.
 # Needs root for the loader (the .debs are unpacked into /).
 pack=${FMSR_PACK:-.gpu}
+if [ -f "$pack/bin.tar.xz" ] && [ ! -x "$pack/bin/fmsr" ]; then
+  mkdir -p "$pack/bin"
+  xz -dc "$pack/bin.tar.xz" | tar xf - -C "$pack/bin"
+fi
 if [ ! -x "$pack/bin/fmsr" ]; then
   echo "no $pack/bin/fmsr: run scripts/gpu/pack.sh where there is network, and carry $pack" >&2
   exit 2

@@ -4,24 +4,28 @@
 # the Shadow Hand model, and packs what must travel into one ignored folder
 # (default .gpu/): the stripped binary, the model, the Vulkan loader (.debs),
 # and with --mujoco MuJoCo's library. Carry that folder with the repository
-# (for the device tool: carry [".gpu"]).
+# (for the device tool: carry [".gpu"]). The binaries travel as one
+# xz-compressed archive, bin.tar.xz, that scripts/gpu/env.sh unpacks there.
 #
 #   scripts/gpu/pack.sh                  # --features vulkan (device vulkan:0)
 #   scripts/gpu/pack.sh --mujoco         # and MuJoCo, for the cross-engine evaluation
 #   scripts/gpu/pack.sh --cpu            # no GPU feature: to try the steps on any machine
 #   scripts/gpu/pack.sh --out DIR        # another folder (must be ignored by git)
+#   scripts/gpu/pack.sh --bench ddpg_update        # and this bench's binary (--test NAME: a test's)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 features=vulkan
 mujoco=0
 out=.gpu
+extras=()  # "bench NAME" or "test NAME"
 while [ $# -gt 0 ]; do
   case $1 in
     --mujoco) mujoco=1 ;;
     --cpu) features= ;;
     --features) features=$2; shift ;;
     --out) out=$2; shift ;;
-    *) echo "usage: $0 [--mujoco] [--cpu | --features LIST] [--out DIR]" >&2; exit 2 ;;
+    --bench | --test) extras+=("${1#--} $2"); shift ;;
+    *) echo "usage: $0 [--mujoco] [--cpu | --features LIST] [--out DIR] [--bench NAME | --test NAME]..." >&2; exit 2 ;;
   esac
   shift
 done
@@ -37,7 +41,30 @@ cargo build --release ${features:+--features "$features"}
 rm -rf "$out"
 mkdir -p "$out/bin" "$out/assets"
 cp target/release/fmsr "$out/bin/fmsr"
-strip "$out/bin/fmsr"
+for extra in "${extras[@]}"; do
+  read -r kind name <<< "$extra"
+  # The target's executable, as cargo reports it (its file name carries a hash).
+  # Tests too in release (benches are): what runs on the GPU machine is timed there.
+  release=()
+  [ "$kind" = test ] && release=(--release)
+  exe=$(cargo "$kind" "${release[@]}" --no-run ${features:+--features "$features"} "--$kind" "$name" --message-format=json 2>/dev/null \
+    | python3 -c 'import json, sys
+for line in sys.stdin:
+    m = json.loads(line)
+    if m.get("reason") == "compiler-artifact" and m.get("executable") and m["target"]["name"] == sys.argv[1]:
+        print(m["executable"])' "$name")
+  if [ -z "$exe" ]; then
+    echo "no executable for $kind $name" >&2
+    exit 1
+  fi
+  cp "$exe" "$out/bin/$name"
+done
+strip "$out"/bin/*
+# One archive with a window larger than the binaries: they share most of
+# their code (burn, cubecl, wgpu), which a per-file compression stores again
+# for each (fmsr and two benches: 37 MiB together, 54 MiB apart).
+tar cf - -C "$out/bin" . | xz -T1 -6 --lzma2=dict=512MiB > "$out/bin.tar.xz"
+rm -r "$out/bin"
 # The model: the extracted folder only (the wheel it came from stays in the cache).
 model=$(target/release/fmsr assets fetch)
 cp -r "${model%/assets}" "$out/assets/"
