@@ -6,7 +6,8 @@
 # OUT_DIR what comes back:
 # runs.tar.gz (the report, and per run config.toml, provenance.json,
 # metrics.csv/jsonl, eval*.json, the log and REACHED, which
-# says how many of the planned epochs it trained) and one NAME.fmsr per run:
+# says how many of the planned epochs it trained) and one NAME.fmsr per run
+# that completed an epoch (one that did not is skipped, its log kept):
 # 1 + N files, so at most 7 runs for the 8 files a GPU machine gives back.
 #
 #   scripts/gpu/finish.sh "$OUT" block_dense_fmsr_is block_dense
@@ -39,6 +40,10 @@ for name in "$@"; do
   else
     echo "$name: trained all $planned epochs" | tee "$run/REACHED"
   fi
+  if [ ! -f "$run/checkpoint.bin" ]; then
+    echo "$name: no epoch complete, nothing to evaluate"
+    continue
+  fi
   "$FMSR" eval "$run" | tail -n 3
   if [ -d "${FMSR_PACK:-.gpu}/lib" ]; then
     "$FMSR" eval "$run" --engine mujoco | tail -n 3
@@ -47,13 +52,17 @@ for name in "$@"; do
   "$FMSR" export "$run" --out "$out/$name.fmsr"
   runs+=("$run")
 done
-"$FMSR" report "${runs[@]}" --out runs/gpu/report
-files=(report)
+files=()
+if [ ${#runs[@]} -gt 0 ]; then
+  "$FMSR" report "${runs[@]}" --out runs/gpu/report
+  files+=(report)
+fi
 for name in "$@"; do
-  for f in config.toml provenance.json metrics.csv metrics.jsonl REACHED; do
-    files+=("$name/$f")
+  for f in config.toml provenance.json metrics.csv metrics.jsonl REACHED eval*.json; do
+    for g in runs/gpu/"$name"/$f; do
+      if [ -f "$g" ]; then files+=("$name/$(basename "$g")"); fi
+    done
   done
-  for f in runs/gpu/"$name"/eval*.json; do files+=("$name/$(basename "$f")"); done
   files+=("$name.log")
 done
 tar czf "$out/runs.tar.gz" -C runs/gpu "${files[@]}"

@@ -11,7 +11,8 @@
 # 1. the machine: GPU, driver, cores, the pack's commit, `fmsr devices`;
 # 2. benches/ddpg_update.rs (criterion; batch 256 and 1024, action selection)
 #    on the first of vulkan:0, vulkan, wgpu:0, wgpu that runs it and computes the CPU's
-#    updates (its parity check): the device of what follows, else cpu;
+#    updates (its parity check): the device of what follows, else cpu
+#    (FMSR_LEASE_DEVICES: other candidates, in order);
 # 3. the same update in PyTorch on CUDA (scripts/pytorch_reference);
 # 4. the block's Dense+FMSR+IS at the paper's config alone until its first
 #    epoch is done (a paper epoch on all cores and the GPU: metrics.csv's
@@ -48,7 +49,7 @@ mapfile -t devices < <("$FMSR" devices)
 printf '%s\n' "${devices[@]}"
 
 device=cpu
-for candidate in vulkan:0 vulkan wgpu:0 wgpu; do
+for candidate in ${FMSR_LEASE_DEVICES:-vulkan:0 vulkan wgpu:0 wgpu}; do
   printf '%s\n' "${devices[@]}" | grep -qx "$candidate" || continue
   step "ddpg_update on $candidate (criterion: time [low median high])"
   if FMSR_DEVICE=$candidate timeout 150 "$bin/ddpg_update" --bench --warm-up-time 1 --measurement-time 3 \
