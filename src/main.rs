@@ -202,6 +202,13 @@ impl From<EngineArg> for Engine {
 }
 
 fn main() -> Result<()> {
+    if std::env::var_os("BURN_DEVICE").is_none() {
+        // burn creates a loaded optimiser state on its default device (a GPU
+        // backend's default adapter in a GPU build) before moving it to the
+        // networks' device; on the CPU that always exists (fmsr_nn::device).
+        // SAFETY: the first statement of main, before any thread exists.
+        unsafe { std::env::set_var("BURN_DEVICE", "flex") };
+    }
     let cli = Cli::parse();
     match cli.command {
         Command::Train(args) => train(&args).map(|_| ()),

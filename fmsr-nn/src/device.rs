@@ -142,6 +142,30 @@ pub fn available() -> Vec<String> {
     out
 }
 
+/// Whether burn's default device can be created, which loading an optimiser
+/// state needs: burn-optim 0.22.1's `ModuleOptimizer::load_record` makes the
+/// state's tensors on `Device::default()` (the first compiled GPU backend's
+/// default adapter, or what `BURN_DEVICE` names) and moves them to the
+/// parameters' device at the next step. In a build with a GPU backend on a
+/// machine without an adapter, burn panics there; this is the typed error
+/// instead. `BURN_DEVICE=flex` (which the `fmsr` binary sets unless given)
+/// keeps that state on the CPU until the next step.
+pub(crate) fn check_load_device() -> Result<(), NnError> {
+    if Device::default() == Device::flex() {
+        return Ok(());
+    }
+    if Backend::Wgpu.found().is_empty() && Backend::Vulkan.found().is_empty() {
+        return Err(NnError::Device {
+            device: "burn's default device".into(),
+            reason: "loading optimiser state creates its tensors there first, and this machine has no GPU adapter; \
+                     set BURN_DEVICE=flex"
+                .into(),
+            available: available().join(", "),
+        });
+    }
+    Ok(())
+}
+
 /// The adapters to look for when listing a backend's devices.
 const CANDIDATES: [Adapter; 10] = [
     Adapter::Discrete(0),

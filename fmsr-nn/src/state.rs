@@ -177,6 +177,7 @@ impl Learner {
                 state.critic_norm.dim().to_string(),
             ));
         }
+        crate::device::check_load_device()?;
         let load = |o: &ModuleOptimizer, bytes: &[u8], what: &str| {
             o.clone()
                 .from_bytes(Bytes::from_bytes_vec(bytes.to_vec()))
