@@ -10,7 +10,9 @@ if [ ! -x "$pack/bin/fmsr" ]; then
   echo "no $pack/bin/fmsr: run scripts/gpu/pack.sh where there is network, and carry $pack" >&2
   exit 2
 fi
-if [ -d "$pack/debs" ] && ! ldconfig -p | grep -q libvulkan.so.1; then
+# The loader and glvnd (NVIDIA's Vulkan driver needs libGLdispatch), when
+# either is missing.
+if [ -d "$pack/debs" ] && ! { ldconfig -p | grep -q libvulkan.so.1 && ldconfig -p | grep -q libGLdispatch.so.0; }; then
   for f in "$pack"/debs/*.deb; do dpkg -x "$f" /; done
   ldconfig
 fi

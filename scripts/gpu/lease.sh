@@ -47,6 +47,10 @@ echo "cores: $(nproc)"
 step "fmsr devices"
 mapfile -t devices < <("$FMSR" devices)
 printf '%s\n' "${devices[@]}"
+if ! printf '%s\n' "${devices[@]}" | grep -q vulkan; then
+  echo "no Vulkan adapter; the loader says:"
+  VK_LOADER_DEBUG=error,warn "$FMSR" devices 2>&1 | sort -u | head -n 10
+fi
 
 device=cpu
 for candidate in ${FMSR_LEASE_DEVICES:-vulkan:0 vulkan wgpu:0 wgpu}; do

@@ -74,12 +74,16 @@ if [ "$mujoco" = 1 ]; then
 fi
 if [[ $features == *vulkan* || $features == *wgpu* ]]; then
   # The Vulkan loader (the GPU machine has NVIDIA's driver but may lack
-  # libvulkan1), as .debs for x86-64, unpacked there by scripts/gpu/env.sh.
+  # libvulkan1), as .debs for x86-64, unpacked there by scripts/gpu/env.sh,
+  # with glvnd's libraries: NVIDIA's Vulkan driver is libGLX_nvidia.so.0,
+  # which does not load without libGLdispatch (libglvnd0). Without them the
+  # loader "Found no drivers" and only the CPU is listed (seen on an H200
+  # lease, 2026-11-26).
   lists=$(mktemp -d)
   o=(-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 "-oDir::State::Lists=$lists")
   mkdir -p "$lists/partial" "$out/debs"
   apt-get "${o[@]}" update >/dev/null
-  (cd "$out/debs" && apt-get "${o[@]}" download libvulkan1 >/dev/null)
+  (cd "$out/debs" && apt-get "${o[@]}" download libvulkan1 libglvnd0 libglx0 libegl1 libgl1 libopengl0 libgles2 >/dev/null)
 fi
 {
   echo "commit $(git rev-parse HEAD)$(git diff --quiet HEAD -- . ':!docs' || echo ' (with uncommitted changes)')"
