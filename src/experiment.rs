@@ -194,8 +194,8 @@ pub struct ExperimentConfig {
     #[serde(default)]
     pub engine: Engine,
     /// The burn device the networks live on: `"cpu"` (burn's `flex`, default),
-    /// or with the `wgpu` / `vulkan` features a GPU such as `"wgpu:0"`,
-    /// `"vulkan:0"` or `"wgpu:cpu"` ([`parse_device`]).
+    /// or with the `wgpu` / `vulkan` / `cuda` features a GPU such as `"wgpu:0"`,
+    /// `"vulkan:0"`, `"cuda:0"` or `"wgpu:cpu"` ([`parse_device`]).
     #[serde(default = "default_device")]
     pub device: String,
     /// The Shadow Hand task (object, thresholds, features).

@@ -77,6 +77,7 @@ fn build_features() -> Vec<String> {
         ("mpi", cfg!(feature = "mpi")),
         ("wgpu", cfg!(feature = "wgpu")),
         ("vulkan", cfg!(feature = "vulkan")),
+        ("cuda", cfg!(feature = "cuda")),
     ]
     .into_iter()
     .filter(|(_, on)| *on)

@@ -9,6 +9,7 @@
 //! | `wgpu:cpu` | a CPU Vulkan driver such as Mesa's lavapipe (for CI) | `wgpu` |
 //! | `wgpu:integrated:N`, `wgpu:virtual:N` | the `N`-th integrated / virtual GPU | `wgpu` |
 //! | `vulkan`, `vulkan:N`, `vulkan:cpu`, ... | as `wgpu`, pinned to Vulkan, kernels in SPIR-V | `vulkan` |
+//! | `cuda`, `cuda:N` | the first / the `N`-th CUDA device (kernels through cubecl's LLVM backend) | `cuda` |
 //!
 //! A build with `vulkan` compiles every Vulkan kernel to SPIR-V, `wgpu:` devices
 //! included; lavapipe cannot run those, so test on `wgpu:cpu` from a build
@@ -16,7 +17,9 @@
 //!
 //! [`DeviceSpec::device`] checks that the build has the backend and that the
 //! machine has the adapter, and otherwise returns [`NnError::Device`] listing
-//! the devices that exist, so a run can fail before it creates anything.
+//! the devices that exist, so a run can fail before it creates anything. A
+//! machine without NVIDIA's `libcuda` lists no CUDA device (the library is
+//! looked for before anything is asked of it).
 //!
 //! ```
 //! use fmsr_nn::{Adapter, DeviceSpec};
@@ -24,6 +27,8 @@
 //! assert_eq!(spec, DeviceSpec::Wgpu(Adapter::Cpu));
 //! assert_eq!(spec.to_string(), "wgpu:cpu");
 //! assert_eq!("vulkan:1".parse::<DeviceSpec>()?, DeviceSpec::Vulkan(Adapter::Discrete(1)));
+//! assert_eq!("cuda:1".parse::<DeviceSpec>()?, DeviceSpec::Cuda(Some(1)));
+//! assert_eq!("cuda".parse::<DeviceSpec>()?.to_string(), "cuda");
 //! assert!(DeviceSpec::Flex.device().is_ok());
 //! assert!("tpu".parse::<DeviceSpec>().is_err());
 //! # Ok::<(), fmsr_nn::NnError>(())
@@ -60,6 +65,8 @@ pub enum DeviceSpec {
     Wgpu(Adapter),
     /// burn's wgpu backend pinned to Vulkan (SPIR-V kernels).
     Vulkan(Adapter),
+    /// burn's CUDA backend: the device of that index, or the first (`None`).
+    Cuda(Option<usize>),
 }
 
 impl fmt::Display for Adapter {
@@ -80,6 +87,8 @@ impl fmt::Display for DeviceSpec {
             DeviceSpec::Flex => write!(f, "cpu"),
             DeviceSpec::Wgpu(a) => write!(f, "wgpu{a}"),
             DeviceSpec::Vulkan(a) => write!(f, "vulkan{a}"),
+            DeviceSpec::Cuda(None) => write!(f, "cuda"),
+            DeviceSpec::Cuda(Some(n)) => write!(f, "cuda:{n}"),
         }
     }
 }
@@ -110,7 +119,13 @@ impl FromStr for DeviceSpec {
             ["cpu" | "flex"] => Ok(DeviceSpec::Flex),
             ["wgpu", rest @ ..] => adapter(s, rest).map(DeviceSpec::Wgpu),
             ["vulkan", rest @ ..] => adapter(s, rest).map(DeviceSpec::Vulkan),
-            _ => Err(syntax(s, "unknown backend (known: cpu, flex, wgpu, vulkan)")),
+            ["cuda"] => Ok(DeviceSpec::Cuda(None)),
+            ["cuda", n] => n
+                .parse::<usize>()
+                .map(|n| DeviceSpec::Cuda(Some(n)))
+                .map_err(|_| syntax(s, &format!("`{n}` is not a CUDA device index (0, 1, ...)"))),
+            ["cuda", ..] => Err(syntax(s, "expected `cuda` or `cuda:N`")),
+            _ => Err(syntax(s, "unknown backend (known: cpu, flex, wgpu, vulkan, cuda)")),
         }
     }
 }
@@ -126,7 +141,38 @@ impl DeviceSpec {
             DeviceSpec::Flex => Ok(Device::flex()),
             DeviceSpec::Wgpu(a) => Backend::Wgpu.device(*a, self),
             DeviceSpec::Vulkan(a) => Backend::Vulkan.device(*a, self),
+            DeviceSpec::Cuda(index) => cuda_device(index.unwrap_or(0), self),
         }
+    }
+}
+
+/// The CUDA devices the driver reports (none without `libcuda`, or in a
+/// build without `cuda`).
+fn cuda_found() -> Vec<Device> {
+    #[cfg(feature = "cuda")]
+    return Device::enumerate(burn::tensor::DeviceType::Cuda).into_iter().collect();
+    #[cfg(not(feature = "cuda"))]
+    Vec::new()
+}
+
+fn cuda_device(index: usize, spec: &DeviceSpec) -> Result<Device, NnError> {
+    let error = |reason: &str| NnError::Device {
+        device: spec.to_string(),
+        reason: reason.to_owned(),
+        available: available().join(", "),
+    };
+    #[cfg(feature = "cuda")]
+    {
+        let device = Device::cuda(index);
+        if cuda_found().contains(&device) {
+            return Ok(device);
+        }
+        Err(error("this machine has no such CUDA device (is NVIDIA's driver, libcuda, installed?)"))
+    }
+    #[cfg(not(feature = "cuda"))]
+    {
+        let _ = index;
+        Err(error("this build has no `cuda` backend (build with `scripts/build_cuda.sh`)"))
     }
 }
 
@@ -138,6 +184,11 @@ pub fn available() -> Vec<String> {
     let mut out = vec![DeviceSpec::Flex.to_string()];
     for backend in [Backend::Wgpu, Backend::Vulkan] {
         out.extend(backend.adapters().into_iter().map(|a| backend.spec(a).to_string()));
+    }
+    let cuda = cuda_found().len();
+    if cuda > 0 {
+        out.push(DeviceSpec::Cuda(None).to_string());
+        out.extend((0..cuda).map(|n| DeviceSpec::Cuda(Some(n)).to_string()));
     }
     out
 }
@@ -154,7 +205,7 @@ pub(crate) fn check_load_device() -> Result<(), NnError> {
     if Device::default() == Device::flex() {
         return Ok(());
     }
-    if Backend::Wgpu.found().is_empty() && Backend::Vulkan.found().is_empty() {
+    if Backend::Wgpu.found().is_empty() && Backend::Vulkan.found().is_empty() && cuda_found().is_empty() {
         return Err(NnError::Device {
             device: "burn's default device".into(),
             reason: "loading optimiser state creates its tensors there first, and this machine has no GPU adapter; \
@@ -287,7 +338,8 @@ mod tests {
         prop_oneof![
             Just(DeviceSpec::Flex),
             adapter().prop_map(DeviceSpec::Wgpu),
-            adapter().prop_map(DeviceSpec::Vulkan)
+            adapter().prop_map(DeviceSpec::Vulkan),
+            proptest::option::of(0usize..64).prop_map(DeviceSpec::Cuda)
         ]
     }
 
@@ -315,6 +367,15 @@ mod tests {
         assert!(err("wgpu:x").contains("`x` is not an adapter index"), "{}", err("wgpu:x"));
         assert!(err("wgpu:1:2:3").contains("expected"), "{}", err("wgpu:1:2:3"));
         assert!(err("cpu:0").contains("unknown backend"), "{}", err("cpu:0"));
+        assert!(err("cuda:x").contains("`x` is not a CUDA device index"), "{}", err("cuda:x"));
+        assert!(err("cuda:integrated:0").contains("expected `cuda` or `cuda:N`"), "{}", err("cuda:integrated:0"));
+    }
+
+    #[cfg(not(feature = "cuda"))]
+    #[test]
+    fn cuda_not_built_is_an_error_naming_the_build_script() {
+        let e = "cuda:0".parse::<DeviceSpec>().unwrap().device().unwrap_err().to_string();
+        assert!(e.contains("scripts/build_cuda.sh"), "{e}");
     }
 
     #[cfg(not(feature = "wgpu"))]
