@@ -1,10 +1,25 @@
 # Sourced by the steps that run on the GPU machine (start.sh, finish.sh): the
-# packed binaries (unpacked from bin.tar.xz on first use), model, Vulkan loader and MuJoCo library of scripts/gpu/pack.sh.
+# packed binaries (unpacked from bin.tar.xz, or its parts, on first use), model, Vulkan loader and MuJoCo library of scripts/gpu/pack.sh.
 # Needs root for the loader (the .debs are unpacked into /).
 pack=${FMSR_PACK:-.gpu}
-if [ -f "$pack/bin.tar.xz" ] && [ ! -x "$pack/bin/fmsr" ]; then
+parts=$(sed -n 's/^parts //p' "$pack/MANIFEST" 2>/dev/null || true)
+if [ ! -x "$pack/bin/fmsr" ] && [ -f "$pack/bin.tar.xz" ]; then
   mkdir -p "$pack/bin"
   xz -dc "$pack/bin.tar.xz" | tar xf - -C "$pack/bin"
+elif [ ! -x "$pack/bin/fmsr" ] && [ -n "$parts" ]; then
+  # The archive in parts, part N in "$pack-N", each carried by a call of its own.
+  files=()
+  for i in $(seq 1 "$parts"); do
+    dir=$pack
+    [ "$i" -gt 1 ] && dir=$pack-$i
+    if [ ! -f "$dir/bin.tar.xz.part$i" ]; then
+      echo "$dir/bin.tar.xz.part$i has not come: carry $dir in a call of its own (the binaries travel in $parts parts)" >&2
+      exit 2
+    fi
+    files+=("$dir/bin.tar.xz.part$i")
+  done
+  mkdir -p "$pack/bin"
+  cat "${files[@]}" | xz -dc | tar xf - -C "$pack/bin"
 fi
 if [ ! -x "$pack/bin/fmsr" ]; then
   echo "no $pack/bin/fmsr: run scripts/gpu/pack.sh where there is network, and carry $pack" >&2

@@ -2,15 +2,17 @@
 # A short GPU lease in one command, on the GPU machine (issue 40, items 2a and
 # 2b), for a pack made with
 #
-#   scripts/gpu/pack.sh --bench ddpg_update
+#   scripts/gpu/pack.sh --bench ddpg_update [--bench paper_epoch] [--features vulkan,cuda]
 #
-# and then, there, in the repository's root:
+# (a pack in parts, .gpu-N beside .gpu: first a call of its own per .gpu-N
+# that carries it and runs `true`, on the same machine), and then, there, in
+# the repository's root:
 #
 #   scripts/gpu/lease.sh OUT_DIR [SECONDS]     # SECONDS: this command's wall time (default 540)
 #
 # 1. the machine: GPU, driver, cores, the pack's commit, `fmsr devices`;
 # 2. benches/ddpg_update.rs (criterion; batch 256 and 1024, action selection)
-#    on the first of vulkan:0, vulkan, wgpu:0, wgpu that runs it and computes the CPU's
+#    on the first of vulkan:0, cuda:0, vulkan, wgpu:0, wgpu that runs it and computes the CPU's
 #    updates (its parity check): the device of what follows, else cpu
 #    (FMSR_LEASE_DEVICES: other candidates, in order);
 # 3. the same update in PyTorch on CUDA (scripts/pytorch_reference);
@@ -53,7 +55,7 @@ if ! printf '%s\n' "${devices[@]}" | grep -q vulkan; then
 fi
 
 device=cpu
-for candidate in ${FMSR_LEASE_DEVICES:-vulkan:0 vulkan wgpu:0 wgpu}; do
+for candidate in ${FMSR_LEASE_DEVICES:-vulkan:0 cuda:0 vulkan wgpu:0 wgpu}; do
   printf '%s\n' "${devices[@]}" | grep -qx "$candidate" || continue
   step "ddpg_update on $candidate (criterion: time [low median high])"
   if FMSR_DEVICE=$candidate timeout 150 "$bin/ddpg_update" --bench --warm-up-time 1 --measurement-time 3 \
@@ -67,6 +69,12 @@ rm -f "$out/ddpg_update.txt"
 echo "device for what follows: $device"
 step "the same update in PyTorch on CUDA"
 timeout 90 scripts/pytorch_reference/run.sh 50 --device cuda --batch 256,1024 || echo "PyTorch reference failed (exit $?)"
+
+if [ -x "$bin/paper_epoch" ]; then
+  step "one cycle of a paper epoch on $device: collecting against updating"
+  FMSR_DEVICE=$device FMSR_EPOCH_CYCLES=1 FMSR_EPOCH_CONFIG=configs/block_dense_fmsr_is.toml \
+    timeout 150 "$bin/paper_epoch" || echo "paper_epoch failed (exit $?)"
+fi
 
 runs=(block_dense_fmsr_is block_dense)
 step "a paper epoch: ${runs[0]} alone on $device and $(nproc) cores"

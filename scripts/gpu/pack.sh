@@ -10,6 +10,7 @@
 #   scripts/gpu/pack.sh                  # --features vulkan (device vulkan:0)
 #   scripts/gpu/pack.sh --mujoco         # and MuJoCo, for the cross-engine evaluation
 #   scripts/gpu/pack.sh --cpu            # no GPU feature: to try the steps on any machine
+#   scripts/gpu/pack.sh --features vulkan,cuda   # both GPU backends (cuda: scripts/cuda_llvm.sh's LLVM)
 #   scripts/gpu/pack.sh --out DIR        # another folder (must be ignored by git)
 #   scripts/gpu/pack.sh --bench ddpg_update        # and this bench's binary (--test NAME: a test's)
 set -euo pipefail
@@ -37,8 +38,13 @@ if [ "$mujoco" = 1 ]; then
   scripts/setup_mujoco.sh
   features=${features:+$features,}mujoco
 fi
-cargo build --release ${features:+--features "$features"}
-rm -rf "$out"
+# The cuda feature builds against scripts/cuda_llvm.sh's LLVM (no download).
+cargo=(cargo)
+if [[ $features == *cuda* ]]; then
+  cargo=(env "XDG_DATA_HOME=$(scripts/cuda_llvm.sh)" "CUDARC_CUDA_VERSION=${CUDARC_CUDA_VERSION:-13000}" cargo)
+fi
+"${cargo[@]}" build --release ${features:+--features "$features"}
+rm -rf "$out" "$out"-[0-9]*
 mkdir -p "$out/bin" "$out/assets"
 cp target/release/fmsr "$out/bin/fmsr"
 for extra in "${extras[@]}"; do
@@ -47,7 +53,7 @@ for extra in "${extras[@]}"; do
   # Tests too in release (benches are): what runs on the GPU machine is timed there.
   release=()
   [ "$kind" = test ] && release=(--release)
-  exe=$(cargo "$kind" "${release[@]}" --no-run ${features:+--features "$features"} "--$kind" "$name" --message-format=json 2>/dev/null \
+  exe=$("${cargo[@]}" "$kind" "${release[@]}" --no-run ${features:+--features "$features"} "--$kind" "$name" --message-format=json 2>/dev/null \
     | python3 -c 'import json, sys
 for line in sys.stdin:
     m = json.loads(line)
@@ -91,12 +97,43 @@ fi
   echo "packed $(date -u +%Y-%m-%dT%H:%M:%SZ)"
 } > "$out/MANIFEST"
 # What travels: the tracked and untracked-not-ignored files, and this folder.
+# A call carries at most 64 MiB, the tree included (63 here, for margin;
+# FMSR_PACK_CALL_MIB sets another).
+# Where the binaries' archive does not fit beside the tree and the rest of the
+# pack, it is cut into parts: part 1 in this folder, part N in "$out-N", one
+# folder per call (the GPU machine keeps what earlier calls brought while it
+# is held); scripts/gpu/env.sh joins them when all have come.
 tree=$(git ls-files -z --cached --others --exclude-standard | xargs -0 -r du -cb 2>/dev/null | tail -n 1 | cut -f 1)
-packed=$(du -sb "$out" | cut -f 1)
-total=$(( (tree + packed) / 1048576 ))
-cat "$out/MANIFEST"
-echo "packed $out: $(( packed / 1048576 )) MiB; with the tree $total MiB of the 64 MiB that may travel"
-if [ "$total" -ge 64 ]; then
-  echo "too large to travel: carry less (--cpu, no --mujoco) or shrink the tree" >&2
+limit=$((${FMSR_PACK_CALL_MIB:-63} * 1048576))
+archive=$out/bin.tar.xz
+size=$(stat -c %s "$archive")
+rest=$(( $(du -sb "$out" | cut -f 1) - size ))
+first=$((limit - tree - rest))
+if [ "$first" -lt $((1048576)) ]; then
+  echo "too large to travel: the tree and the pack without binaries take $(( (tree + rest) / 1048576 )) MiB" >&2
   exit 1
+fi
+if [ "$size" -gt "$first" ]; then
+  offset=0
+  part=1
+  while [ "$offset" -lt "$size" ]; do
+    cap=$((part == 1 ? first : limit - tree))
+    dir=$out
+    [ "$part" -gt 1 ] && dir=$out-$part
+    mkdir -p "$dir"
+    dd if="$archive" of="$dir/bin.tar.xz.part$part" iflag=skip_bytes,count_bytes skip="$offset" count="$cap" bs=1M status=none
+    offset=$((offset + cap))
+    part=$((part + 1))
+  done
+  rm "$archive"
+  echo "parts $((part - 1))" >> "$out/MANIFEST"
+fi
+cat "$out/MANIFEST"
+for dir in "$out" "$out"-[0-9]*; do
+  [ -d "$dir" ] || continue
+  packed=$(du -sb "$dir" | cut -f 1)
+  echo "$dir: $(( packed / 1048576 )) MiB; with the tree $(( (tree + packed) / 1048576 )) MiB of the 64 MiB a call may carry"
+done
+if [ -d "$out-2" ]; then
+  echo "the binaries travel in parts: carry $out in one call, then each $out-N in a call of its own on the same machine"
 fi
