@@ -202,10 +202,20 @@ pub fn available() -> Vec<String> {
 /// instead. `BURN_DEVICE=flex` (which the `fmsr` binary sets unless given)
 /// keeps that state on the CPU until the next step.
 pub(crate) fn check_load_device() -> Result<(), NnError> {
-    if Device::default() == Device::flex() {
+    let default = Device::default();
+    if default == Device::flex() {
         return Ok(());
     }
-    if Backend::Wgpu.found().is_empty() && Backend::Vulkan.found().is_empty() && cuda_found().is_empty() {
+    // burn prefers CUDA when it is built; otherwise the default is a wgpu one.
+    #[cfg(feature = "cuda")]
+    let exists = if default == Device::cuda(0) {
+        !cuda_found().is_empty()
+    } else {
+        !(Backend::Wgpu.found().is_empty() && Backend::Vulkan.found().is_empty())
+    };
+    #[cfg(not(feature = "cuda"))]
+    let exists = !(Backend::Wgpu.found().is_empty() && Backend::Vulkan.found().is_empty());
+    if !exists {
         return Err(NnError::Device {
             device: "burn's default device".into(),
             reason: "loading optimiser state creates its tensors there first, and this machine has no GPU adapter; \
