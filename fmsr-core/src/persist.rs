@@ -1,10 +1,10 @@
 //! The one on-disk framing of everything a run keeps: checkpoints, the learners'
-//! states and the replay log's segments.
+//! states, the replay log's segments and policy files.
 //!
 //! A file is a header and a body:
 //!
 //! ```text
-//! magic (8 bytes) | format version (u32, LE) | FNV-1a 64 of the body (u64, LE) | body
+//! magic (8 bytes) | format version (u32, LE) | checksum of the body (u64, LE) | body
 //! ```
 //!
 //! The body is one serde value encoded with [`postcard`]: compact, with `f32`
@@ -13,12 +13,20 @@
 //! of it is interpreted, and serde's cautious preallocation keeps a corrupted
 //! length field from allocating more than the file holds.
 //!
+//! The checksum is CRC-32C ([`crc32c`], zero-extended to 64 bits), the one the
+//! TensorBoard writer uses too. Files written before the switch carry FNV-1a
+//! (64 bit): each kind of file bumped its version when it switched, and its
+//! [`Format`] says from which version on it is CRC-32C, so a build reads the
+//! older files as before ([`Checksum::of_version`]).
+//!
 //! ```
-//! use fmsr_core::persist::{decode, encode, FormatError};
-//! let bytes = encode(b"EXAMPLE\0", 1, &vec![1.5f32, -0.25]).unwrap();
-//! let back: Vec<f32> = decode(b"EXAMPLE\0", 1, &bytes).unwrap();
+//! use fmsr_core::persist::{decode, encode, Format, FormatError};
+//! const EXAMPLE: Format = Format::new(b"EXAMPLE\0", 2).reads_from(1).crc32c_since(2);
+//! let bytes = encode(&EXAMPLE, &vec![1.5f32, -0.25]).unwrap();
+//! let back: Vec<f32> = decode(&EXAMPLE, &bytes).unwrap();
 //! assert_eq!(back, [1.5, -0.25]);
-//! assert!(matches!(decode::<Vec<f32>>(b"EXAMPLE\0", 2, &bytes), Err(FormatError::Version { found: 1, .. })));
+//! let newer = Format::new(b"EXAMPLE\0", 3).reads_from(3);
+//! assert!(matches!(decode::<Vec<f32>>(&newer, &bytes), Err(FormatError::Version { found: 2, .. })));
 //! ```
 
 use std::io::Write;
@@ -32,6 +40,133 @@ use crate::error::CoreError;
 /// Bytes before the body: magic, version and checksum.
 pub const HEADER_LEN: usize = 20;
 
+/// One kind of file: its magic number, the version this build writes, the
+/// oldest version it still reads (with the same body), and the version from
+/// which on its files carry CRC-32C rather than FNV-1a.
+///
+/// ```
+/// use fmsr_core::persist::{Checksum, Format};
+/// // Version 4 written, 3 still read; 3 was framed with FNV-1a.
+/// const CHECKPOINT: Format = Format::new(b"FMSRCKPT", 4).reads_from(3).crc32c_since(4);
+/// assert_eq!(CHECKPOINT.checksum(3), Checksum::Fnv1a);
+/// assert_eq!(CHECKPOINT.checksum(4), Checksum::Crc32c);
+/// assert!(CHECKPOINT.reads(3) && !CHECKPOINT.reads(2) && !CHECKPOINT.reads(5));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Format {
+    /// The first 8 bytes of every file of this kind.
+    pub magic: &'static [u8; 8],
+    /// The version this build writes.
+    pub version: u32,
+    /// The oldest version this build reads; defaults to `version`.
+    pub oldest: u32,
+    /// The first version framed with CRC-32C; defaults to 0 (all of them).
+    pub crc32c_from: u32,
+}
+
+impl Format {
+    /// A kind of file of which this build reads and writes only `version`, with CRC-32C.
+    ///
+    /// ```
+    /// let f = fmsr_core::persist::Format::new(b"EXAMPLE\0", 2);
+    /// assert_eq!((f.oldest, f.crc32c_from), (2, 0));
+    /// ```
+    #[must_use]
+    pub const fn new(magic: &'static [u8; 8], version: u32) -> Self {
+        Self { magic, version, oldest: version, crc32c_from: 0 }
+    }
+
+    /// Also reads the versions from `oldest` on, whose body is the same.
+    ///
+    /// ```
+    /// let f = fmsr_core::persist::Format::new(b"EXAMPLE\0", 2).reads_from(1);
+    /// assert!(f.reads(1) && f.reads(2));
+    /// ```
+    #[must_use]
+    pub const fn reads_from(self, oldest: u32) -> Self {
+        Self { oldest, ..self }
+    }
+
+    /// Versions before `version` carry FNV-1a.
+    ///
+    /// ```
+    /// use fmsr_core::persist::{Checksum, Format};
+    /// let f = Format::new(b"EXAMPLE\0", 2).crc32c_since(2);
+    /// assert_eq!(f.checksum(1), Checksum::Fnv1a);
+    /// ```
+    #[must_use]
+    pub const fn crc32c_since(self, version: u32) -> Self {
+        Self { crc32c_from: version, ..self }
+    }
+
+    /// Whether this build reads files of `version`.
+    ///
+    /// ```
+    /// assert!(!fmsr_core::persist::Format::new(b"EXAMPLE\0", 2).reads(1));
+    /// ```
+    #[must_use]
+    pub const fn reads(&self, version: u32) -> bool {
+        self.oldest <= version && version <= self.version
+    }
+
+    /// The checksum of files of `version`.
+    ///
+    /// ```
+    /// use fmsr_core::persist::{Checksum, Format};
+    /// assert_eq!(Format::new(b"EXAMPLE\0", 1).checksum(1), Checksum::Crc32c);
+    /// ```
+    #[must_use]
+    pub const fn checksum(&self, version: u32) -> Checksum {
+        Checksum::of_version(version, self.crc32c_from)
+    }
+
+    /// The magic number as text, for errors.
+    fn name(&self) -> String {
+        self.magic.iter().take_while(|&&b| b != 0).map(|&b| char::from(b)).collect()
+    }
+}
+
+/// The checksum in a file's header.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Checksum {
+    /// FNV-1a, 64 bit: files written before the switch to CRC-32C.
+    Fnv1a,
+    /// CRC-32C (Castagnoli), zero-extended to 64 bits.
+    Crc32c,
+}
+
+impl Checksum {
+    /// CRC-32C from version `crc32c_from` on, FNV-1a before.
+    ///
+    /// ```
+    /// use fmsr_core::persist::Checksum;
+    /// assert_eq!(Checksum::of_version(3, 4), Checksum::Fnv1a);
+    /// assert_eq!(Checksum::of_version(4, 4), Checksum::Crc32c);
+    /// ```
+    #[must_use]
+    pub const fn of_version(version: u32, crc32c_from: u32) -> Self {
+        if version >= crc32c_from { Self::Crc32c } else { Self::Fnv1a }
+    }
+
+    /// The checksum of `bytes`, as the header stores it.
+    ///
+    /// ```
+    /// use fmsr_core::persist::Checksum;
+    /// assert_eq!(Checksum::Fnv1a.of(b""), 0xcbf2_9ce4_8422_2325);
+    /// // The CRC-32C check value.
+    /// assert_eq!(Checksum::Crc32c.of(b"123456789"), 0xE306_9283);
+    /// ```
+    #[must_use]
+    pub fn of(self, bytes: &[u8]) -> u64 {
+        match self {
+            Self::Fnv1a => {
+                bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+            }
+            Self::Crc32c => u64::from(crc32c::crc32c(bytes)),
+        }
+    }
+}
+
 /// Why bytes could not be written or read back.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum FormatError {
@@ -41,13 +176,15 @@ pub enum FormatError {
         /// The kind of file expected, from its magic number.
         expected: String,
     },
-    /// The file was written by a build with another format version.
-    #[error("format version {found}, this build reads {expected}")]
+    /// The file was written by a build with a format version this one does not read.
+    #[error("{}", version_message(*.found, *.oldest, *.newest))]
     Version {
-        /// The version this build reads.
-        expected: u32,
         /// The version in the file.
         found: u32,
+        /// The oldest version this build reads.
+        oldest: u32,
+        /// The version this build writes.
+        newest: u32,
     },
     /// The body does not match its checksum.
     #[error("checksum mismatch (truncated or corrupted file)")]
@@ -60,53 +197,64 @@ pub enum FormatError {
     Encode(String),
 }
 
-/// FNV-1a, 64 bit: the checksum of every file a run writes.
-///
-/// ```
-/// assert_eq!(fmsr_core::persist::fnv1a(b""), 0xcbf2_9ce4_8422_2325);
-/// ```
-#[must_use]
-pub fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+/// What a version error says, with what to do about it.
+fn version_message(found: u32, oldest: u32, newest: u32) -> String {
+    let reads = if oldest == newest { format!("version {newest}") } else { format!("versions {oldest} to {newest}") };
+    if found > newest {
+        format!("format version {found}, this build reads {reads}: the file was written by a newer fmsr; update fmsr")
+    } else {
+        format!(
+            "format version {found}, this build reads {reads}: read it with the fmsr that wrote it (a run's \
+             provenance.json names its commit), or train or export it again with this one"
+        )
+    }
 }
 
-/// Encodes `value` behind the header (`magic`, `version`, checksum).
+/// Encodes `value` behind the header of `format`'s current version.
 ///
 /// # Errors
 /// [`FormatError::Encode`] when serde refuses the value.
-pub fn encode<T: Serialize + ?Sized>(magic: &[u8; 8], version: u32, value: &T) -> Result<Vec<u8>, FormatError> {
+pub fn encode<T: Serialize + ?Sized>(format: &Format, value: &T) -> Result<Vec<u8>, FormatError> {
     let body = postcard::to_stdvec(value).map_err(|e| FormatError::Encode(e.to_string()))?;
     let mut out = Vec::with_capacity(body.len() + HEADER_LEN);
-    out.extend_from_slice(magic);
-    out.extend_from_slice(&version.to_le_bytes());
-    out.extend_from_slice(&fnv1a(&body).to_le_bytes());
+    out.extend_from_slice(format.magic);
+    out.extend_from_slice(&format.version.to_le_bytes());
+    out.extend_from_slice(&format.checksum(format.version).of(&body).to_le_bytes());
     out.extend_from_slice(&body);
     Ok(out)
 }
 
-/// Decodes bytes written by [`encode`] with the same `magic` and `version`.
+/// The version in a file's header, once its magic is `format`'s.
+///
+/// ```
+/// use fmsr_core::persist::{encode, version, Format};
+/// const F: Format = Format::new(b"EXAMPLE\0", 7);
+/// assert_eq!(version(&F, &encode(&F, &1u8).unwrap()), Ok(7));
+/// ```
+///
+/// # Errors
+/// [`FormatError::Magic`] for a file of another kind or shorter than a header.
+pub fn version(format: &Format, bytes: &[u8]) -> Result<u32, FormatError> {
+    let header = bytes.get(..HEADER_LEN).filter(|h| &h[..8] == format.magic);
+    let header = header.ok_or_else(|| FormatError::Magic { expected: format.name() })?;
+    Ok(u32::from_le_bytes([header[8], header[9], header[10], header[11]]))
+}
+
+/// Decodes bytes of any version `format` reads, written by [`encode`].
 ///
 /// # Errors
 /// The first check that fails: magic, version, checksum, then the body.
-pub fn decode<T: DeserializeOwned>(magic: &[u8; 8], version: u32, bytes: &[u8]) -> Result<T, FormatError> {
-    let (header, body) = bytes.split_at_checked(HEADER_LEN).ok_or_else(|| magic_error(magic))?;
-    if &header[..8] != magic {
-        return Err(magic_error(magic));
+pub fn decode<T: DeserializeOwned>(format: &Format, bytes: &[u8]) -> Result<T, FormatError> {
+    let found = version(format, bytes)?;
+    if !format.reads(found) {
+        return Err(FormatError::Version { found, oldest: format.oldest, newest: format.version });
     }
-    let word = |range: std::ops::Range<usize>| header[range].iter().rev().fold(0u64, |v, &b| (v << 8) | u64::from(b));
-    let found = word(8..12) as u32;
-    if found != version {
-        return Err(FormatError::Version { expected: version, found });
-    }
-    if fnv1a(body) != word(12..20) {
+    let (header, body) = bytes.split_at(HEADER_LEN);
+    let stored = u64::from_le_bytes(header[12..20].try_into().expect("a header holds 8 checksum bytes"));
+    if format.checksum(found).of(body) != stored {
         return Err(FormatError::Checksum);
     }
     postcard::from_bytes(body).map_err(|e| FormatError::Body(e.to_string()))
-}
-
-fn magic_error(magic: &[u8; 8]) -> FormatError {
-    let name: String = magic.iter().take_while(|&&b| b != 0).map(|&b| char::from(b)).collect();
-    FormatError::Magic { expected: name }
 }
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same folder,
@@ -145,20 +293,56 @@ mod tests {
 
     use super::*;
 
+    const TEST: Format = Format::new(b"TESTFILE", 3).reads_from(2).crc32c_since(3);
+
+    /// A file of `version` framed by hand with `checksum`, as older builds wrote it.
+    fn framed(version: u32, checksum: Checksum, body: &[u8]) -> Vec<u8> {
+        let mut out = TEST.magic.to_vec();
+        out.extend_from_slice(&version.to_le_bytes());
+        out.extend_from_slice(&checksum.of(body).to_le_bytes());
+        out.extend_from_slice(body);
+        out
+    }
+
     proptest! {
         // Guards the framing: any corruption of a valid file is a typed error.
         #[test]
         fn corrupted_bytes_are_errors(values in proptest::collection::vec(any::<f32>(), 1..64),
                                       flip in 0usize..1024, bit in 0u8..8, cut in 0usize..1024) {
-            let good = encode(b"TESTFILE", 3, &values).unwrap();
-            let back: Vec<f32> = decode(b"TESTFILE", 3, &good).unwrap();
+            let good = encode(&TEST, &values).unwrap();
+            let back: Vec<f32> = decode(&TEST, &good).unwrap();
             prop_assert_eq!(back.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
                             values.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
             let mut bad = good.clone();
             let i = flip % bad.len();
             bad[i] ^= 1 << bit;
-            prop_assert!(decode::<Vec<f32>>(b"TESTFILE", 3, &bad).is_err());
-            prop_assert!(decode::<Vec<f32>>(b"TESTFILE", 3, &good[..cut % good.len()]).is_err());
+            prop_assert!(decode::<Vec<f32>>(&TEST, &bad).is_err());
+            prop_assert!(decode::<Vec<f32>>(&TEST, &good[..cut % good.len()]).is_err());
         }
+
+        // Guards the switch of checksum: a file written before it (FNV-1a,
+        // an older version) reads back as it did, and the same body under
+        // the other checksum is refused.
+        #[test]
+        fn older_versions_keep_their_checksum(values in proptest::collection::vec(any::<f32>(), 0..64)) {
+            let body = postcard::to_stdvec(&values).unwrap();
+            let back: Vec<f32> = decode(&TEST, &framed(2, Checksum::Fnv1a, &body)).unwrap();
+            prop_assert_eq!(back.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                            values.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
+            prop_assert_eq!(encode(&TEST, &values).unwrap(), framed(3, Checksum::Crc32c, &body));
+            prop_assert_eq!(decode::<Vec<f32>>(&TEST, &framed(2, Checksum::Crc32c, &body)), Err(FormatError::Checksum));
+            prop_assert_eq!(decode::<Vec<f32>>(&TEST, &framed(3, Checksum::Fnv1a, &body)), Err(FormatError::Checksum));
+        }
+    }
+
+    #[test]
+    fn versions_outside_the_range_say_what_to_do() {
+        let body = postcard::to_stdvec(&1u8).unwrap();
+        let old = decode::<u8>(&TEST, &framed(1, Checksum::Fnv1a, &body)).unwrap_err();
+        assert_eq!(old, FormatError::Version { found: 1, oldest: 2, newest: 3 });
+        assert!(old.to_string().contains("read it with the fmsr that wrote it"), "{old}");
+        let new = decode::<u8>(&TEST, &framed(4, Checksum::Crc32c, &body)).unwrap_err();
+        assert!(new.to_string().contains("update fmsr"), "{new}");
+        assert!(matches!(decode::<u8>(&TEST, b"TESTFILE"), Err(FormatError::Magic { .. })));
     }
 }

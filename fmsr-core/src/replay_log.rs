@@ -27,8 +27,9 @@ use crate::error::CoreError;
 use crate::persist;
 use crate::replay::Episode;
 
-const MAGIC: &[u8; 8] = b"FMSRSEGM";
-const VERSION: u32 = 1;
+/// Version 2: CRC-32C; version 1 (the same body with FNV-1a) is still read,
+/// so a log may hold segments of both.
+const FORMAT: persist::Format = persist::Format::new(b"FMSRSEGM", 2).reads_from(1).crc32c_since(2);
 const EXTENSION: &str = "seg";
 
 /// One segment: consecutive episodes from store index `first`.
@@ -77,7 +78,7 @@ impl ReplayLog {
         let first = stored.saturating_sub(self.pending.len() as u64);
         let name = format!("{first:020}.{EXTENSION}");
         let segment = Segment { first, episodes: self.pending.drain(..).collect() };
-        let bytes = persist::encode(MAGIC, VERSION, &segment)
+        let bytes = persist::encode(&FORMAT, &segment)
             .map_err(|e| CoreError::Corrupt { path: name.clone().into(), reason: e.to_string() })?;
         Ok(Some((name, bytes)))
     }
@@ -115,7 +116,7 @@ impl ReplayLog {
         for (first, path) in segments[start..].iter().take_while(|(first, _)| *first < to) {
             let bytes = std::fs::read(path).map_err(|source| CoreError::Io { path: path.clone(), source })?;
             let corrupt = |reason: String| CoreError::Corrupt { path: path.clone(), reason };
-            let segment: Segment = persist::decode(MAGIC, VERSION, &bytes).map_err(|e| corrupt(e.to_string()))?;
+            let segment: Segment = persist::decode(&FORMAT, &bytes).map_err(|e| corrupt(e.to_string()))?;
             if segment.first != *first {
                 return Err(corrupt(format!("holds episodes from {}, its name says {first}", segment.first)));
             }

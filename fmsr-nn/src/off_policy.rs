@@ -69,7 +69,7 @@ pub(crate) trait UpdateRule: std::fmt::Debug + Send {
     fn targets(&self) -> (f64, bool);
 
     /// The rule's own state beside the networks, saved with them (learner
-    /// state format 5: postcard bytes of this record).
+    /// state format 5 on: postcard bytes of this record).
     type State: Serialize + DeserializeOwned;
 
     /// The rule's own state, to save.

@@ -25,28 +25,30 @@ use crate::normalizer::Normalizer;
 
 const MAGIC: &[u8; 8] = b"FMSRNNST";
 
-/// The version of [`LearnerState`]'s layout: 5 since the update rule's own
-/// state is a typed record (postcard bytes of the rule's `State`); 4 kept it
-/// as a list of values, and version-4 states are still read (the rule
-/// converts the values). 4 began with the agents' networks stacked in groups,
-/// each group with one optimiser record per kind; states of version 3 (one
+/// The version of [`LearnerState`]'s layout: 6 since the checksum is CRC-32C,
+/// 5 (the same body with FNV-1a) is still read. 5 made the update rule's own
+/// state a typed record (postcard bytes of the rule's `State`); 4 kept it as
+/// a list of values, and version-4 states are still read (the rule converts
+/// the values). 4 began with the agents' networks stacked in groups, each
+/// group with one optimiser record per kind; states of version 3 (one
 /// optimiser record per agent) are refused with [`NnError::CorruptState`]
-/// naming both versions.
-const STATE_FORMAT: u32 = 5;
+/// naming the versions this build reads.
+const STATE_FORMAT: u32 = 6;
 
 /// How a state is framed: [`fmsr_core::persist`]'s header (magic, version,
 /// checksum) with the kind of state named in errors.
 struct Framing {
-    magic: &'static [u8; 8],
-    version: u32,
+    format: persist::Format,
     what: &'static str,
 }
 
 /// The whole learner ([`LearnerState`]).
-const LEARNER: Framing = Framing { magic: MAGIC, version: STATE_FORMAT, what: "learner state" };
+const LEARNER: Framing =
+    Framing { format: persist::Format::new(MAGIC, STATE_FORMAT).reads_from(5).crc32c_since(6), what: "learner state" };
 
-/// The whole learner as format 4 wrote it (the rule's state as values).
-const LEARNER_V4: Framing = Framing { magic: MAGIC, version: 4, what: "learner state (format 4)" };
+/// The whole learner as format 4 wrote it (the rule's state as values, FNV-1a).
+const LEARNER_V4: Framing =
+    Framing { format: persist::Format::new(MAGIC, 4).crc32c_since(6), what: "learner state (format 4)" };
 
 /// The update rule's own state as a saved learner holds it.
 pub(crate) enum SavedRule {
@@ -56,9 +58,9 @@ pub(crate) enum SavedRule {
     Values(Vec<f64>),
 }
 
-/// A learner state of format 5, or of format 4 with its rule state as values.
+/// A learner state of format 6 or 5, or of format 4 with its rule state as values.
 fn decode_learner(bytes: &[u8]) -> Result<(LearnerBody, SavedRule), NnError> {
-    match persist::decode::<LearnerState>(MAGIC, STATE_FORMAT, bytes) {
+    match persist::decode::<LearnerState>(&LEARNER.format, bytes) {
         Err(FormatError::Version { found: 4, .. }) => {
             let v4: LearnerStateOf<Vec<f64>> = decode(&LEARNER_V4, bytes)?;
             Ok((v4.learner, SavedRule::Values(v4.rule)))
@@ -68,18 +70,19 @@ fn decode_learner(bytes: &[u8]) -> Result<(LearnerBody, SavedRule), NnError> {
     }
 }
 
-/// The acting half ([`PolicyState`]): version 1.
-const POLICY: Framing = Framing { magic: b"FMSRNNPO", version: 1, what: "policy state" };
+/// The acting half ([`PolicyState`]): version 2 (CRC-32C); version 1, the
+/// same body with FNV-1a, is still read.
+const POLICY: Framing =
+    Framing { format: persist::Format::new(b"FMSRNNPO", 2).reads_from(1).crc32c_since(2), what: "policy state" };
 
 /// The header of [`fmsr_core::persist`], then the postcard body.
 fn encode<T: Serialize>(framing: &Framing, value: &T) -> Result<Vec<u8>, NnError> {
-    persist::encode(framing.magic, framing.version, value)
-        .map_err(|e| NnError::Backend { what: framing.what, reason: e.to_string() })
+    persist::encode(&framing.format, value).map_err(|e| NnError::Backend { what: framing.what, reason: e.to_string() })
 }
 
 /// The inverse of [`encode`]; the error names the byte where reading failed.
 fn decode<T: DeserializeOwned>(framing: &Framing, bytes: &[u8]) -> Result<T, NnError> {
-    persist::decode(framing.magic, framing.version, bytes).map_err(|e| {
+    persist::decode(&framing.format, bytes).map_err(|e| {
         let offset = match e {
             FormatError::Magic { .. } | FormatError::Encode(_) => 0,
             FormatError::Version { .. } => 8,
@@ -129,7 +132,7 @@ impl Learner {
         encode(&LEARNER, &LearnerState { learner, rule })
     }
 
-    /// Restores a state written by [`Learner::save`] (format 5) or by format
+    /// Restores a state written by [`Learner::save`] (format 6), by format 5 or by format
     /// 4. `rule` turns the saved rule state into the rule's and checks it
     /// before anything of this learner changes; its result is returned.
     pub(crate) fn load<S>(
@@ -291,7 +294,7 @@ struct AgentState {
     actor_norm: Normalizer,
 }
 
-/// A learner state of format 5.
+/// A learner state of format 6 (and 5: the same body).
 type LearnerState = LearnerStateOf<Vec<u8>>;
 
 /// The layout of formats 4 and 5, which differ only in the rule's state, the

@@ -10,7 +10,7 @@
 //! No critics, optimiser state, RNG or replay: it acts, it does not train on.
 //!
 //! ```text
-//! magic "FMSRPLCY" | format version (u32, LE) | FNV-1a 64 of the body | body (postcard)
+//! magic "FMSRPLCY" | format version (u32, LE) | CRC-32C of the body (u64, LE) | body (postcard)
 //! body: config (TOML) | provenance (JSON) | metrics (JSON lines) | evaluations (JSON each)
 //!       | epochs | env steps | policy state (fmsr-nn's framing of its own)
 //! ```
@@ -34,11 +34,12 @@ use super::run_dir::RunDir;
 use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError};
 use crate::provenance::Provenance;
 
-/// The magic number of a policy file.
-const MAGIC: &[u8; 8] = b"FMSRPLCY";
+/// The policy file format this build writes: 2, with CRC-32C. Version 1 (the
+/// same body with FNV-1a) is still read.
+pub const POLICY_FILE_VERSION: u32 = 2;
 
-/// The policy file format this build writes and reads.
-pub const POLICY_FILE_VERSION: u32 = 1;
+/// The framing of a policy file.
+const FORMAT: persist::Format = persist::Format::new(b"FMSRPLCY", POLICY_FILE_VERSION).reads_from(1).crc32c_since(2);
 
 /// The name of a policy file inside a directory: `fmsr eval DIR` reads
 /// `DIR/policy.fmsr` when `DIR` holds no run.
@@ -157,7 +158,7 @@ impl PolicyFile {
             env_steps: self.env_steps,
             policy: self.policy.clone(),
         };
-        persist::encode(MAGIC, POLICY_FILE_VERSION, &body)
+        persist::encode(&FORMAT, &body)
             .map_err(|e| ExperimentError::Encode { what: "the policy file", reason: e.to_string() })
     }
 
@@ -169,11 +170,8 @@ impl PolicyFile {
     /// parse (the configuration is checked as `fmsr train` checks it).
     pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self, ExperimentError> {
         let parse = |message: String| ExperimentError::Parse { path: path.to_path_buf(), message };
-        let body: Body = persist::decode(MAGIC, POLICY_FILE_VERSION, bytes).map_err(|e| match e {
-            FormatError::Version { found, expected } => parse(format!(
-                "policy file format version {found}, this build reads version {expected}: export the run again \
-                 with this build, or use the build that wrote it"
-            )),
+        let body: Body = persist::decode(&FORMAT, bytes).map_err(|e| match e {
+            FormatError::Version { .. } => parse(format!("policy file {e}")),
             FormatError::Magic { .. } => parse("not an fmsr policy file (bad magic)".into()),
             other => parse(format!("policy file: {other}")),
         })?;

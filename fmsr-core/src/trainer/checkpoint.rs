@@ -16,9 +16,9 @@ use crate::replay_log::ReplayLog;
 use crate::shadow::OccupancyEstimator;
 use crate::shadow::ShadowReward;
 
-const MAGIC: &[u8; 8] = b"FMSRCKPT";
-/// Version 3: the [`persist`] framing; the replay lives in the replay log.
-const VERSION: u32 = 3;
+/// Version 4: CRC-32C; version 3 (the same body with FNV-1a) is still read.
+/// Version 3 began the [`persist`] framing with the replay in the replay log.
+const FORMAT: persist::Format = persist::Format::new(b"FMSRCKPT", 4).reads_from(3).crc32c_since(4);
 
 /// A checkpoint file: the trainer's part as JSON (the configuration's tagged
 /// enums need a self-describing format), the algorithm's as its own bytes.
@@ -75,7 +75,7 @@ pub fn read_checkpoint_contents(path: &Path) -> Result<CheckpointContents, CoreE
     }
     let corrupt = |reason: String| CoreError::Corrupt { path: path.into(), reason };
     let bytes = std::fs::read(path).map_err(|source| CoreError::Io { path: path.into(), source })?;
-    let file: CheckpointFile = persist::decode(MAGIC, VERSION, &bytes).map_err(|e| corrupt(e.to_string()))?;
+    let file: CheckpointFile = persist::decode(&FORMAT, &bytes).map_err(|e| corrupt(e.to_string()))?;
     let meta: Meta = serde_json::from_str(&file.meta).map_err(|e| corrupt(e.to_string()))?;
     Ok(CheckpointContents {
         epoch: meta.state.epoch,
@@ -93,7 +93,8 @@ struct WorkerFiles {
     segment: Option<(String, Vec<u8>)>,
 }
 
-const WORKER_MAGIC: &[u8; 8] = b"FMSRWRKR";
+/// A worker's files, versioned with the checkpoint.
+const WORKER_FORMAT: persist::Format = persist::Format { magic: b"FMSRWRKR", ..FORMAT };
 
 /// The checkpoint file of worker `rank` at `epoch`: `path` itself for worker 0
 /// (the file whose rename commits a checkpoint), else
@@ -165,12 +166,9 @@ where
             vec![files]
         } else {
             let corrupt = |e: persist::FormatError| CoreError::Corrupt { path: path.into(), reason: e.to_string() };
-            let bytes = persist::encode(WORKER_MAGIC, VERSION, &files).map_err(corrupt)?;
+            let bytes = persist::encode(&WORKER_FORMAT, &files).map_err(corrupt)?;
             let Some(gathered) = self.comm.gather_bytes(bytes) else { return Ok(()) };
-            gathered
-                .iter()
-                .map(|b| persist::decode(WORKER_MAGIC, VERSION, b).map_err(corrupt))
-                .collect::<Result<_, _>>()?
+            gathered.iter().map(|b| persist::decode(&WORKER_FORMAT, b).map_err(corrupt)).collect::<Result<_, _>>()?
         };
         self.write_checkpoint_files(path, all)
     }
@@ -188,7 +186,7 @@ where
         let corrupt = |reason: String| CoreError::Corrupt { path: path.into(), reason };
         let meta = serde_json::to_string(&meta).map_err(|e| corrupt(e.to_string()))?;
         let algorithm = self.algorithm.save_state(false).map_err(algo_err)?;
-        persist::encode(MAGIC, VERSION, &CheckpointFile { meta, algorithm }).map_err(|e| corrupt(e.to_string()))
+        persist::encode(&FORMAT, &CheckpointFile { meta, algorithm }).map_err(|e| corrupt(e.to_string()))
     }
 
     /// Writes every worker's segment, then the other workers' checkpoints, then
@@ -262,7 +260,7 @@ where
     fn read_checkpoint(&self, path: &Path) -> Result<(CheckpointMeta<O>, Vec<u8>), CoreError> {
         let corrupt = |reason: String| CoreError::Corrupt { path: path.into(), reason };
         let bytes = std::fs::read(path).map_err(|source| CoreError::Io { path: path.into(), source })?;
-        let file: CheckpointFile = persist::decode(MAGIC, VERSION, &bytes).map_err(|e| corrupt(e.to_string()))?;
+        let file: CheckpointFile = persist::decode(&FORMAT, &bytes).map_err(|e| corrupt(e.to_string()))?;
         let meta: CheckpointMeta<O> = serde_json::from_str(&file.meta).map_err(|e| corrupt(e.to_string()))?;
         let mut expected = self.config.clone();
         expected.epochs = meta.config.epochs;
