@@ -4,12 +4,11 @@
 //! action instead. Every draw comes from the algorithm's seeded RNG.
 
 use rand::Rng;
+use rand_distr::{Distribution, StandardNormal};
 
-/// A standard normal sample (Box-Muller).
+/// A standard normal sample as `f32`: [`rand_distr::StandardNormal`] (ziggurat).
 pub(crate) fn gaussian<R: Rng + ?Sized>(rng: &mut R) -> f32 {
-    let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
-    let u2: f64 = rng.random::<f64>();
-    ((-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()) as f32
+    StandardNormal.sample(rng)
 }
 
 /// Adds the noise to `n` rows of every agent's actions, then replaces whole

@@ -9,7 +9,11 @@
 //! `tests/data/per_agent_reference.json` was written by this test's cases,
 //! run on the per-agent learner of commit ac94283 (one actor and critic module
 //! per agent, updated agent by agent), release build, and saved with
-//! `serde_json::to_string` as a map case -> name -> values.
+//! `serde_json::to_string` as a map case -> name -> values. When the normals
+//! moved to rand_distr, the file was recorded again so, on ac94283 with its
+//! `explore::gaussian` drawing from `rand_distr::StandardNormal` as fmsr-nn's
+//! does now (the same recorder on ac94283 itself gave the earlier file bit
+//! for bit; MADDPG's cases, which draw no normal, did not change).
 
 mod common;
 

@@ -9,7 +9,13 @@
 //! recording's CPU it is bit for bit).
 //!
 //! To record anew (only from a build that writes format 4):
-//! `FMSR_STATE_V4=record cargo test --workspace --test state_v4`.
+//! `FMSR_STATE_V4=record cargo test --workspace --test state_v4`. To record
+//! only what the saved learners do next, after a change meant to change it,
+//! run `FMSR_STATE_V4=expect` on a format-4 build with that change made: the
+//! exploring actions and MATD3's and MASAC's updates were recorded so when
+//! the normals moved to rand_distr, from c854538 with fmsr-nn's `gaussian`
+//! drawing from `rand_distr::StandardNormal` (the same command on c854538
+//! itself gave the earlier files bit for bit).
 
 mod common;
 
@@ -67,7 +73,8 @@ fn next(l: &mut AnyLearner, layout: &fmsr_core::agent::ObservationLayout) -> Nex
 #[test]
 fn states_of_format_4_load_and_continue_as_saved() {
     let layout = common::layout(&[2, 3, 1], 7, 3);
-    let record = std::env::var("FMSR_STATE_V4").as_deref() == Ok("record");
+    let mode = std::env::var("FMSR_STATE_V4").unwrap_or_default();
+    let record = mode == "record";
     for kind in AlgorithmKind::ALL {
         let (state, expected) = (dir().join(format!("{}.bin", kind.key())), dir().join(format!("{}.json", kind.key())));
         if record {
@@ -83,8 +90,12 @@ fn states_of_format_4_load_and_continue_as_saved() {
         }
         let mut l = common::learner(kind, &layout, net(99));
         l.load_state(&std::fs::read(&state).unwrap()).unwrap();
-        let then: Next = serde_json::from_slice(&std::fs::read(&expected).unwrap()).unwrap();
         let now = next(&mut l, &layout);
+        if mode == "expect" {
+            std::fs::write(&expected, serde_json::to_string(&now).unwrap() + "\n").unwrap();
+            continue;
+        }
+        let then: Next = serde_json::from_slice(&std::fs::read(&expected).unwrap()).unwrap();
         let (a, b) = (now.values(), then.values());
         assert_eq!(a.len(), b.len(), "{kind:?}: shapes differ");
         for (k, (x, y)) in a.iter().zip(&b).enumerate() {
