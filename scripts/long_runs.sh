@@ -6,6 +6,7 @@
 #   scripts/long_runs.sh resume            restart every unfinished run (first thing every session)
 #   scripts/long_runs.sh status            epochs, env steps, success, s/epoch, sessions left, alive
 #   scripts/long_runs.sh record            evaluate new snapshots, copy small files into docs/
+#   scripts/long_runs.sh finish            once every run has ended: issue 37's item 4 (below)
 #
 # The home is `$FMSR_LONG_RUNS`, else `$HOME/.local/share/fmsr/long-runs`:
 #
@@ -36,10 +37,31 @@
 # regenerates the section "The paper's budget" of docs/results.md
 # (scripts/long_runs_record.py). Checkpoints, replay and policies stay in the
 # home until a run ends.
+#
+# `finish` refuses until every run has trained its epochs and taken its
+# snapshots. Then, with one release build `--features mujoco` for every
+# evaluation, per run: the policy after the last epoch (`final.fmsr` in the
+# home, exported by the run's own binary: no selection), evaluated on the fixed
+# test set, on the validation episodes and on the first TRIALS test episodes
+# (the paper's Table II: 500), on rapier and on MuJoCo, into
+# docs/results/paper_budget/<run>/final/; that policy, carrying its evaluations
+# (`fmsr eval --record`), as pretrained/<run>_paper/policy.fmsr, with the
+# snapshot best on the validation episodes beside it (best_on_validation.fmsr,
+# unless it is the final one), test episode 0 rendered and a README; then
+# `fmsr report` over those policies into docs/results/paper_budget/report/, and
+# the section again, now with the comparison with the paper
+# (scripts/long_runs_final.py). Each step skips what an earlier `finish` wrote,
+# so a cut-off `finish` is run again. Overrides (for a trial on a scratch
+# home): FMSR_LONG_RUNS_RECORDS, FMSR_LONG_RUNS_PRETRAINED,
+# FMSR_LONG_RUNS_RESULTS, FMSR_LONG_RUNS_TRIALS.
 set -euo pipefail
 
 repo=$(cd "$(dirname "$0")/.." && pwd)
 home=${FMSR_LONG_RUNS:-$HOME/.local/share/fmsr/long-runs}
+records=${FMSR_LONG_RUNS_RECORDS:-$repo/docs/results/paper_budget}
+pretrained=${FMSR_LONG_RUNS_PRETRAINED:-$repo/pretrained}
+results=${FMSR_LONG_RUNS_RESULTS:-$repo/docs/results.md}
+trials=${FMSR_LONG_RUNS_TRIALS:-500}
 # Epochs (from 0) after which the policy is exported.
 snapshot_epochs=(0 9 24 49 99 149 199 249 299 349 399)
 # Seconds of training one session gives a run (a session lasts 180 minutes).
@@ -229,20 +251,19 @@ archive_earlier_record() {
   local dir=$1 out=$2 was
   [ -f "$out/keeper.env" ] && ! cmp -s "$out/keeper.env" "$dir/keeper.env" || return 0
   was=$(sed -n 's/^STARTED=//p' "$out/keeper.env" | tr -d ':')
-  mkdir -p "$repo/docs/results/paper_budget_lost"
-  mv "$out" "$repo/docs/results/paper_budget_lost/$(basename "$out")-$was"
-  echo "$(basename "$out"): the record of the run started $was is an earlier run's: moved to docs/results/paper_budget_lost/"
+  mkdir -p "${records}_lost"
+  mv "$out" "${records}_lost/$(basename "$out")-$was"
+  echo "$(basename "$out"): the record of the run started $was is an earlier run's: moved to $(basename "$records")_lost/"
 }
 
-record() {
-  [ -d "$home" ] || die "no long-run home at $home"
-  cd "$repo"
-  # Built only when a snapshot waits for its evaluation.
-  local fmsr=$repo/target/release/fmsr built=0 dir name out snap k
+# Evaluates, with the work tree's release build, every snapshot not yet
+# evaluated, and copies each run's small files into the records.
+evaluate_snapshots() {
+  local fmsr=$repo/target/release/fmsr built=0 dir name out snap k f
   build_once() { [ "$built" = 1 ] || { cargo build --release --bin fmsr >&2; built=1; }; }
   for dir in $(runs); do
     name=$(basename "$dir")
-    out=$repo/docs/results/paper_budget/$name
+    out=$records/$name
     archive_earlier_record "$dir" "$out"
     mkdir -p "$out/snapshots"
     for f in config.toml provenance.json metrics.csv; do
@@ -264,8 +285,91 @@ record() {
       fi
     done
   done
-  python3 "$repo/scripts/long_runs_record.py" --home "$home" --results "$repo/docs/results.md" \
-    --records "$repo/docs/results/paper_budget" --commit "$(git rev-parse --short HEAD)"
+}
+
+write_section() {
+  python3 "$repo/scripts/long_runs_record.py" --home "$home" --results "$results" \
+    --records "$records" --pretrained "$pretrained" --commit "$(git -C "$repo" rev-parse --short HEAD)"
+}
+
+record() {
+  [ -d "$home" ] || die "no long-run home at $home"
+  cd "$repo"
+  evaluate_snapshots
+  write_section
+}
+
+# Writes $1 (an evaluation's JSON) with `fmsr eval ARGS... --out`, unless an
+# earlier `finish` did; its output goes beside it as .log.
+eval_once() {
+  local json=$1
+  shift
+  [ -f "$json" ] && return
+  echo "$(basename "$(dirname "$(dirname "$json")")") $(basename "$json" .json): fmsr eval $*"
+  nice -n 5 "$fmsr" eval "$@" --out "$json.tmp" > "${json%.json}.log" 2>&1 || die "fmsr eval $* failed: ${json%.json}.log"
+  mv "$json.tmp" "$json"
+}
+
+# Copies policy file $1 to $2 and writes into it its evaluations: the fixed
+# test set on both engines and the validation episodes; unless $2 exists.
+carry_evaluations() {
+  local from=$1 to=$2
+  [ -f "$to" ] && return
+  cp "$from" "$to.tmp.fmsr"
+  nice -n 5 "$fmsr" eval "$to.tmp.fmsr" --record > /dev/null
+  nice -n 5 "$fmsr" eval "$to.tmp.fmsr" --set validation --record > /dev/null
+  nice -n 5 "$fmsr" eval "$to.tmp.fmsr" --engine mujoco --record > /dev/null
+  mv "$to.tmp.fmsr" "$to"
+}
+
+# The final evaluations and policies of one ended run (see the header).
+finish_run() {
+  local dir=$1 name out pre best last
+  name=$(basename "$dir")
+  out=$records/$name/final
+  pre=$pretrained/${name}_paper
+  mkdir -p "$out" "$pre"
+  # shellcheck disable=SC1091
+  (source "$dir/keeper.env"
+   [ -f "$dir/final.fmsr" ] && exit 0
+   "$BIN" export "$dir/run" --out "$dir/final.fmsr.tmp" | tee "$dir/final.log"
+   grep -q "after $EPOCHS epochs" "$dir/final.log" || die "$name: the checkpoint is not the last epoch's"
+   mv "$dir/final.fmsr.tmp" "$dir/final.fmsr")
+  eval_once "$out/test-rapier.json" "$dir/final.fmsr"
+  eval_once "$out/validation-rapier.json" "$dir/final.fmsr" --set validation
+  eval_once "$out/test-mujoco.json" "$dir/final.fmsr" --engine mujoco
+  eval_once "$out/trials-rapier.json" "$dir/final.fmsr" --episodes "$trials"
+  eval_once "$out/trials-mujoco.json" "$dir/final.fmsr" --engine mujoco --episodes "$trials"
+  carry_evaluations "$dir/final.fmsr" "$pre/policy.fmsr"
+  best=$(python3 "$repo/scripts/long_runs_final.py" best "$records/$name")
+  last=$(($(planned "$dir") - 1))
+  if [ "$best" != "$last" ]; then
+    carry_evaluations "$dir/snapshots/epoch-$(printf %03d "$best").fmsr" "$pre/best_on_validation.fmsr"
+  fi
+  [ -f "$pre/render/episode-0-rapier.gif" ] || nice -n 5 "$fmsr" render "$pre"
+  python3 "$repo/scripts/long_runs_final.py" readme "$records/$name" "$pre" --commit "$(git rev-parse --short HEAD)"
+}
+
+finish() {
+  [ -d "$home" ] || die "no long-run home at $home"
+  cd "$repo"
+  local dir waiting=() policies=()
+  for dir in $(runs); do
+    finished "$dir" || waiting+=("$(basename "$dir") ($(epochs_done "$dir") of $(planned "$dir") epochs)")
+  done
+  [ ${#waiting[@]} -eq 0 ] || die "not every run has ended: ${waiting[*]}; finish waits for all"
+  evaluate_snapshots
+  # One build for every final evaluation: rapier and MuJoCo alike.
+  scripts/setup_mujoco.sh
+  cargo build --release --features mujoco --bin fmsr
+  export LD_LIBRARY_PATH=$repo/target/mujoco/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+  fmsr=$repo/target/release/fmsr
+  for dir in $(runs); do
+    finish_run "$dir"
+    policies+=("$pretrained/$(basename "$dir")_paper")
+  done
+  nice -n 5 "$fmsr" report "${policies[@]}" --out "$records/report"
+  write_section
 }
 
 case "${1:-}" in
@@ -273,6 +377,7 @@ case "${1:-}" in
   resume) resume; exit ;;
   status) status; exit ;;
   record) record; exit ;;
+  finish) finish; exit ;;
   _drive) drive "$2"; exit ;;
-  *) die "usage: $0 start CONFIG... | resume | status | record" ;;
+  *) die "usage: $0 start CONFIG... | resume | status | record | finish" ;;
 esac

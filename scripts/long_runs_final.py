@@ -1,0 +1,328 @@
+#!/usr/bin/env python3
+"""The end of the long runs (issue 37, item 4): the runs against the paper.
+
+Used by `scripts/long_runs.sh finish` and by scripts/long_runs_record.py:
+
+    long_runs_final.py best RECORDS/<run>
+        prints the snapshot epoch best on the validation episodes (ties: the
+        earlier), the one rule by which a snapshot is chosen
+    long_runs_final.py readme RECORDS/<run> PRETRAINED/<run>_paper --commit C
+        writes the README of the run's exported policies
+
+and, imported by the record script, `section_lines`: the part of the section
+"The paper's budget" that compares the ended runs with the paper's Tables I
+and II, row by row, on each engine.
+
+The paper's numbers (egg and block rows of Tables I and II) are written out
+below as printed. Only the success rates and drop counts are on a common
+scale with ours: the paper's contact counts and grasp measures come from its
+own model and units (its egg totals 6595 contacts, ours about 400), so for
+those it is the paper's ordering of two methods that is compared, not its
+values. An ordering is supported when our 95 % interval of the difference
+lies on the paper's side of zero, contradicted when it lies on the other
+side, and otherwise cannot be told. Rates: Wilson intervals, and Newcombe's
+hybrid score interval for a difference of two independent rates; means: the
+normal interval of a difference of means with each mean's standard error
+(std / sqrt(n), Welch).
+"""
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+Z = 1.959963984540054
+
+# Table I (100 trials): success %, then (mean, std) of total contact, Q_MSV,
+# Q_VEW, Q'_MSV, Q'_VEW and Q_DCC in 1e-3 m.
+MEASURES = ["contacts", "q_msv", "q_vew", "dq_msv", "dq_vew", "q_dcc"]
+PAPER_TABLE1 = {
+    "block": {
+        "Dense+FMSR+IS": (86, (7614, 331), (919, 145), (2644, 223), (10, 60), (61, 173), (6.9, 2.4)),
+        "Dense+FMSR": (67, (5787, 251), (667, 245), (1558, 247), (58, 122), (91, 171), (15.6, 3.6)),
+        "Dense": (61, (5359, 263), (434, 85), (1276, 275), (36, 70), (128, 269), (17.6, 5.3)),
+        "Sparse": (92, (5621, 451), (441, 178), (1685, 436), (48, 82), (86, 131), (19.3, 9.2)),
+    },
+    "egg": {
+        "Dense+FMSR+IS": (91, (6595, 374), (1072, 173), (2175, 251), (55, 152), (125, 276), (3.8, 2.5)),
+        "Dense+FMSR": (43, (5846, 269), (912, 151), (1714, 304), (38, 101), (129, 212), (6.5, 3.3)),
+        "Dense": (35, (5624, 203), (707, 80), (1266, 341), (23, 68), (191, 245), (8.1, 1.9)),
+        "Sparse": (94, (6019, 496), (764, 213), (1584, 396), (67, 94), (168, 218), (5.9, 4.1)),
+    },
+}
+# Table II (500 trials): failures, incomplete, drops.
+PAPER_TABLE2 = {
+    "block": {"Dense+FMSR+IS": (61, 60, 1), "Sparse": (42, 26, 16)},
+    "egg": {"Dense+FMSR+IS": (53, 53, 0), "Sparse": (37, 24, 13)},
+}
+PAPER_TRIALS = {"table1": 100, "table2": 500}
+LABELS = {"dense_fmsr_is": "Dense+FMSR+IS", "dense_fmsr": "Dense+FMSR", "dense": "Dense", "sparse": "Sparse"}
+NAMES = {
+    "contacts": "Total contact",
+    "q_msv": "Q_MSV",
+    "q_vew": "Q_VEW",
+    "dq_msv": "\\|Q'_MSV\\|",
+    "dq_vew": "\\|Q'_VEW\\|",
+    "q_dcc": "Q_DCC",
+}
+# Our evaluation's field for each measure, and the scale it is shown at.
+FIELDS = {
+    "contacts": ("total_contacts", 1.0, 0),
+    "q_msv": ("q_msv", 1.0, 4),
+    "q_vew": ("q_vew", 1.0, 5),
+    "dq_msv": ("dq_msv", 1.0, 3),
+    "dq_vew": ("dq_vew", 1.0, 4),
+    "q_dcc": ("q_dcc", 1e3, 1),
+}
+FINALS = ["test-rapier", "validation-rapier", "test-mujoco", "trials-rapier", "trials-mujoco"]
+
+
+def wilson(k, n):
+    p = k / n
+    d = 1 + Z * Z / n
+    c = (p + Z * Z / (2 * n)) / d
+    h = Z / d * math.sqrt(p * (1 - p) / n + Z * Z / (4 * n * n))
+    return p, max(0.0, c - h), min(1.0, c + h)
+
+
+def newcombe(a, b):
+    """Difference a - b of two Wilson intervals (p, lo, hi), Newcombe's hybrid score interval."""
+    d = a[0] - b[0]
+    return d, d - math.sqrt((a[0] - a[1]) ** 2 + (b[2] - b[0]) ** 2), d + math.sqrt((a[2] - a[0]) ** 2 + (b[0] - b[1]) ** 2)
+
+
+def mean_difference(a, b):
+    """Difference of two (mean, std, n) with its 95 % normal interval."""
+    d = a[0] - b[0]
+    h = Z * math.sqrt(a[1] ** 2 / a[2] + b[1] ** 2 / b[2])
+    return d, d - h, d + h
+
+
+def verdict(paper_sign, ours):
+    """Whether our interval of a difference supports the paper's sign of it."""
+    _, lo, hi = ours
+    if paper_sign == 0:
+        return "the paper shows no difference"
+    if lo > 0 or hi < 0:
+        return "**supports**" if (lo > 0) == (paper_sign > 0) else "**contradicts**"
+    return "cannot tell"
+
+
+def pct(i):
+    return f"{100 * i[0]:.0f} % [{100 * i[1]:.0f}, {100 * i[2]:.0f}]"
+
+
+def pts(i):
+    return f"{100 * i[0]:+.0f} pts [{100 * i[1]:+.0f}, {100 * i[2]:+.0f}]"
+
+
+def read_json(path):
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def success(e):
+    return wilson(e["outcomes"]["successes"], e["outcomes"]["episodes"])
+
+
+def drops(e):
+    return wilson(e["outcomes"]["drop"], e["outcomes"]["episodes"])
+
+
+def measure(e, key):
+    field, scale, _ = FIELDS[key]
+    s = (e.get("stability") or {}).get(field)
+    return None if s is None else (s["mean"] * scale, s["std"] * scale, s["n"])
+
+
+def best(run_records):
+    """The snapshot epoch best on the validation episodes (ties: the earlier), or None."""
+    scored = []
+    for p in sorted((run_records / "snapshots").glob("epoch-*.validation.json")):
+        e = json.loads(p.read_text())
+        scored.append((round(e["success_rate"] * e["episodes"]) / e["episodes"], -int(p.name.split(".")[0][6:])))
+    return -max(scored)[1] if scored else None
+
+
+def load_final(run_records):
+    """A run's final evaluations, or None until `finish` wrote them all."""
+    d = run_records / "final"
+    finals = {k: read_json(d / f"{k}.json") for k in FINALS}
+    if any(v is None for v in finals.values()):
+        return None
+    config = (run_records / "config.toml").read_text()
+    method = next(line.split("=", 1)[1].strip().strip('"') for line in config.splitlines() if line.startswith("method"))
+    k = best(run_records)
+    snap = read_json(run_records / "snapshots" / f"epoch-{k:03d}.test.json") if k is not None else None
+    return {"name": run_records.name, "label": LABELS[method], "task": finals["test-rapier"]["task"],
+            "finals": finals, "best": k, "best_test": snap}
+
+
+def table1_rows(a, b, engine):
+    """Success and Table I's measures, a against b on one engine, beside the paper's."""
+    ta, tb = a["finals"][f"test-{engine}"], b["finals"][f"test-{engine}"]
+    pa, pb = PAPER_TABLE1[a["task"]][a["label"]], PAPER_TABLE1[a["task"]][b["label"]]
+    rows = []
+    sa, sb = success(ta), success(tb)
+    rows.append(f"| Success (test, {ta['episodes']}) | {pa[0]} % | {pb[0]} % | {pct(sa)} | {pct(sb)} | "
+                f"{pts(newcombe(sa, sb))} | {verdict(pa[0] - pb[0], newcombe(sa, sb))} |")
+    for i, key in enumerate(MEASURES):
+        ma, mb = measure(ta, key), measure(tb, key)
+        (xa, sda), (xb, sdb) = pa[i + 1], pb[i + 1]
+        if ma is None or mb is None:
+            rows.append(f"| {NAMES[key]} | {xa}±{sda} | {xb}±{sdb} | n/a | n/a | n/a | not measured |")
+            continue
+        p = FIELDS[key][2]
+        d = mean_difference(ma, mb)
+        rows.append(f"| {NAMES[key]} | {xa}±{sda} | {xb}±{sdb} | {ma[0]:.{p}f}±{ma[1]:.{p}f} | {mb[0]:.{p}f}±{mb[1]:.{p}f} | "
+                    f"{d[0]:+.{p}f} [{d[1]:+.{p}f}, {d[2]:+.{p}f}] | {verdict(xa - xb, d)} |")
+    da, db = drops(a["finals"][f"trials-{engine}"]), drops(b["finals"][f"trials-{engine}"])
+    n = a["finals"][f"trials-{engine}"]["episodes"]
+    rows.append(f"| Drops ({n} trials; the paper's Table II has no Dense row) | "
+                f"{PAPER_TABLE2[a['task']].get(a['label'], ('', '', 'n/a'))[2]} of 500 | n/a | {pct(da)} | {pct(db)} | "
+                f"{pts(newcombe(da, db))} | {verdict(-1, newcombe(da, db))} (the paper's conclusion: fewer drops) |")
+    return rows
+
+
+def absolute_rows(runs, engine):
+    """Success and drop rates against the paper's own values (on a common scale)."""
+    rows = []
+    for r in runs:
+        paper = PAPER_TABLE1[r["task"]].get(r["label"])
+        if paper is None:
+            continue
+        p = wilson(paper[0], PAPER_TRIALS["table1"])
+        for what, e in (("final", r["finals"][f"test-{engine}"]), ("best on validation", r["best_test"] if engine == "rapier" else None)):
+            if e is None:
+                continue
+            s = success(e)
+            d = newcombe(s, p)
+            rows.append(f"| {r['label']} | success, {what} (epoch {r['best'] if what != 'final' else 'last'}) | {pct(p)} | {pct(s)} | "
+                        f"{pts(d)} | {'as the paper' if d[1] <= 0 <= d[2] else ('below the paper' if d[2] < 0 else 'above the paper')} |")
+        t2 = PAPER_TABLE2[r["task"]].get(r["label"])
+        if t2:
+            p = wilson(t2[2], PAPER_TRIALS["table2"])
+            e = r["finals"][f"trials-{engine}"]
+            s = drops(e)
+            d = newcombe(s, p)
+            rows.append(f"| {r['label']} | drops, final ({e['episodes']} trials) | {pct(p)} | {pct(s)} | {pts(d)} | "
+                        f"{'as the paper' if d[1] <= 0 <= d[2] else ('fewer than the paper' if d[2] < 0 else 'more than the paper')} |")
+    return rows
+
+
+def table2_rows(runs, engine):
+    rows = []
+    for r in runs:
+        e = r["finals"][f"trials-{engine}"]
+        f = e["failures"]
+        share = "n/a" if not f["failures"] else f"{100 * f['drop'] / f['failures']:.1f} %"
+        rows.append(f"| {r['label']} (ours, {engine}) | {e['episodes']} | {f['failures']} | {f['incomplete']} | {f['drop']} | {share} |")
+    for label, (fail, inc, drop) in PAPER_TABLE2[runs[0]["task"]].items():
+        rows.append(f"| {label} (the paper) | 500 | {fail} | {inc} | {drop} | {100 * drop / fail:.1f} % |")
+    return rows
+
+
+def section_lines(runs, records_rel, pretrained_rel):
+    """The comparison with the paper, for the section of docs/results.md; [] until `finish` ran."""
+    finals = [load_final(r) for r in runs]
+    if not finals or any(f is None for f in finals):
+        return []
+    by_label = {f["label"]: f for f in finals}
+    lines = ["", "### At the end: against the paper (issue 37, item 4)", "",
+             "Written by `scripts/long_runs.sh finish`: the policy after the last epoch of each run (no selection), "
+             f"evaluated on the fixed test set (100 episodes), on the validation episodes and on the first "
+             f"{finals[0]['finals']['trials-rapier']['episodes']} test episodes (the paper's Table II), on rapier "
+             f"(trained on) and on MuJoCo; evaluations in [`{records_rel}/<run>/final/`]({records_rel}/), "
+             f"`fmsr report` over both in [`{records_rel}/report/summary.md`]({records_rel}/report/summary.md), "
+             f"the policies in [`{pretrained_rel}/`]({pretrained_rel}/).", ""]
+    for engine in ("rapier", "mujoco"):
+        lines += [f"**Against the paper's own values, {engine}** (success and drops only: the other measures are on "
+                  "the paper's scale, not ours):", "",
+                  "| Run | What | The paper | Ours | Ours minus the paper | |", "|---|---|---|---|---|---|"]
+        lines += absolute_rows(finals, engine)
+        lines.append("")
+        a, b = by_label.get("Dense+FMSR+IS"), by_label.get("Dense")
+        if a and b:
+            lines += [f"**The paper's orderings, Dense+FMSR+IS against Dense, {engine}** (Table I over 100 test episodes; "
+                      "our values mean ± std over the episodes):", "",
+                      "| Measure | The paper: Dense+FMSR+IS | The paper: Dense | Ours: Dense+FMSR+IS | Ours: Dense | "
+                      "Ours: difference (95 %) | The paper's ordering |", "|---|---|---|---|---|---|---|"]
+            lines += table1_rows(a, b, engine)
+            lines.append("")
+        lines += [f"**Failure types (Table II), {engine}:**", "",
+                  "| Policy | Trials | Failures | Incomplete | Drops | Drops of the failures |", "|---|---|---|---|---|---|"]
+        lines += table2_rows(finals, engine)
+        lines.append("")
+    for f in finals:
+        k = f["best"]
+        t = f["best_test"]
+        lines.append(f"- {f['label']}: the snapshot best on validation is epoch {k}"
+                     + (f", test success {pct(success(t))}" if t else "") + ".")
+    return lines
+
+
+def readme(run_records, out, commit):
+    f = load_final(run_records)
+    if f is None:
+        sys.exit(f"{run_records}: the final evaluations are not all there (run `scripts/long_runs.sh finish`)")
+    env = dict(line.split("=", 1) for line in (run_records / "keeper.env").read_text().splitlines() if "=" in line)
+    fin = f["finals"]
+    rows = []
+    for key, what in (("test-rapier", "fixed test set, rapier (trained on)"), ("validation-rapier", "validation episodes, rapier"),
+                      ("test-mujoco", "fixed test set, MuJoCo 3.17"), ("trials-rapier", "first test episodes, rapier (Table II)"),
+                      ("trials-mujoco", "first test episodes, MuJoCo (Table II)")):
+        e = fin[key]
+        o = e["outcomes"]
+        rows.append(f"| {what} | {e['episodes']} | **{pct(success(e))}** | {o['incomplete']} | {o['drop']} |")
+    best_line = (f"The snapshot best on the validation episodes is the final policy itself."
+                 if f["best"] == int(env["EPOCHS"]) - 1 else
+                 f"`best_on_validation.fmsr` is the snapshot after epoch {f['best']} (counted from 0), the best of the "
+                 f"snapshots on 100 validation episodes: test success {pct(success(f['best_test']))}. It was chosen on "
+                 "validation episodes, not on the test set, as the paper logs its best policy.")
+    text = f"""# Egg, six agents, {f['label']}: the paper's budget
+
+The long run of issue 37 (`scripts/long_runs.sh`): `{env.get('CONFIG', '?')}`, seed 0, rapier, the paper's config
+with one stepping thread and one learner thread, {env['EPOCHS']} epochs of 20k env steps, started
+{env.get('STARTED', '?')} with the release binary of commit `{env.get('COMMIT', '?')[:10]}`, on the project's
+development VM (2 cores, no GPU), one core per run. Learning curve and snapshots: `docs/results.md`,
+section "The paper's budget".
+
+`policy.fmsr` is the policy after the last epoch (no selection), exported by the run's own binary and
+evaluated with the build of `{commit}` (`--features mujoco`), its evaluations written into the file
+(`fmsr eval ... --record`). {best_line}
+
+```sh
+cargo run --release -- eval pretrained/{out.name}      # repeats the test evaluation below
+cargo run --release -- render pretrained/{out.name}    # test episode 0 as a GIF, into render/ here
+```
+
+Success is turned and held (within 0.4 rad at the last step, never dropped), with its 95 % Wilson interval:
+
+| Episodes | Count | Success | Incomplete | Drops |
+|---|---|---|---|---|
+""" + "\n".join(rows) + "\n"
+    (out / "README.md").write_text(text)
+    print(f"wrote {out / 'README.md'}")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    b = sub.add_parser("best")
+    b.add_argument("run_records", type=Path)
+    r = sub.add_parser("readme")
+    r.add_argument("run_records", type=Path)
+    r.add_argument("out", type=Path)
+    r.add_argument("--commit", required=True)
+    a = ap.parse_args()
+    if a.cmd == "best":
+        k = best(a.run_records)
+        if k is None:
+            sys.exit(f"{a.run_records}: no snapshot evaluated on the validation episodes")
+        print(k)
+    else:
+        readme(a.run_records, a.out, a.commit)
+
+
+if __name__ == "__main__":
+    main()
