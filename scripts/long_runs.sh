@@ -94,7 +94,11 @@ finished() {
 drive() {
   local dir=$1
   exec 9> "$dir/keeper.lock"
-  flock -n 9 || { log "another driver holds $dir"; exit 0; }
+  # Wait a little: `alive` probes the lock by taking it for an instant (the
+  # launcher does so right after starting this driver), and a driver that gave
+  # up at once on meeting a probe would leave its run stopped (2026-11-26).
+  # A driver holds the lock for its whole life, so after 5 s it is one.
+  flock -w 5 9 || { log "another driver holds $dir"; exit 0; }
   # nice alone does not yield to the session's work: the driver has its own
   # session (setsid), hence its own scheduler autogroup, which the kernel
   # weighs equally with the foreground's whatever the processes' nice. Nice
