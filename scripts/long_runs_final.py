@@ -154,8 +154,12 @@ def load_final(run_records):
     method = next(line.split("=", 1)[1].strip().strip('"') for line in config.splitlines() if line.startswith("method"))
     k = best(run_records)
     snap = read_json(run_records / "snapshots" / f"epoch-{k:03d}.test.json") if k is not None else None
+    val = read_json(run_records / "snapshots" / f"epoch-{k:03d}.validation.json") if k is not None else None
+    metrics = (run_records / "metrics.csv").read_text().splitlines()
+    env_steps = int(metrics[-1].split(",")[4]) if len(metrics) > 1 else 0
     return {"name": run_records.name, "label": LABELS[method], "task": finals["test-rapier"]["task"],
-            "finals": finals, "best": k, "best_test": snap}
+            "finals": finals, "best": k, "best_test": snap, "best_validation_episodes": val["episodes"] if val else 0,
+            "epochs": len(metrics) - 1, "env_steps": env_steps}
 
 
 def table1_rows(a, b, engine):
@@ -192,12 +196,13 @@ def absolute_rows(runs, engine):
         if paper is None:
             continue
         p = wilson(paper[0], PAPER_TRIALS["table1"])
-        for what, e in (("final", r["finals"][f"test-{engine}"]), ("best on validation", r["best_test"] if engine == "rapier" else None)):
+        for what, e in (("after the last epoch", r["finals"][f"test-{engine}"]),
+                        (f"snapshot best on validation (epoch {r['best']} from 0)", r["best_test"] if engine == "rapier" else None)):
             if e is None:
                 continue
             s = success(e)
             d = newcombe(s, p)
-            rows.append(f"| {r['label']} | success, {what} (epoch {r['best'] if what != 'final' else 'last'}) | {pct(p)} | {pct(s)} | "
+            rows.append(f"| {r['label']} | success, {what} | {pct(p)} | {pct(s)} | "
                         f"{pts(d)} | {'as the paper' if d[1] <= 0 <= d[2] else ('below the paper' if d[2] < 0 else 'above the paper')} |")
         t2 = PAPER_TABLE2[r["task"]].get(r["label"])
         if t2:
@@ -205,7 +210,7 @@ def absolute_rows(runs, engine):
             e = r["finals"][f"trials-{engine}"]
             s = drops(e)
             d = newcombe(s, p)
-            rows.append(f"| {r['label']} | drops, final ({e['episodes']} trials) | {pct(p)} | {pct(s)} | {pts(d)} | "
+            rows.append(f"| {r['label']} | drops after the last epoch ({e['episodes']} trials) | {pct(p)} | {pct(s)} | {pts(d)} | "
                         f"{'as the paper' if d[1] <= 0 <= d[2] else ('fewer than the paper' if d[2] < 0 else 'more than the paper')} |")
     return rows
 
@@ -261,6 +266,20 @@ def section_lines(runs, records_rel, pretrained_rel):
     return lines
 
 
+def summary_bullet(finals, anchor):
+    """The summary's line on the long runs once `finish` ran: the final policies' test success and drops."""
+    cells = []
+    for f in finals:
+        t, n = f["finals"]["test-rapier"], f["finals"]["trials-rapier"]
+        cells.append(f"{f['label']} {pct(success(t))} ({n['outcomes']['drop']} drops in {n['episodes']} trials)")
+    text = (f"- **At the paper's budget ({finals[0]['epochs']} epochs), egg, seed 0, ended:** the policies after "
+            "the last epoch reach, on the fixed test set, " + " against ".join(cells))
+    if len(finals) == 2:
+        text += f"; difference {pts(newcombe(success(finals[0]['finals']['test-rapier']), success(finals[1]['finals']['test-rapier'])))}"
+    paper = "; ".join(f"{f['label']} {PAPER_TABLE1[f['task']][f['label']][0]} %" for f in finals if f["label"] in PAPER_TABLE1[f["task"]])
+    return f"{text}. The paper: {paper}. Row by row against the paper: [the paper's budget](#{anchor}).\n"
+
+
 def readme(run_records, out, commit):
     f = load_final(run_records)
     if f is None:
@@ -277,12 +296,13 @@ def readme(run_records, out, commit):
     best_line = (f"The snapshot best on the validation episodes is the final policy itself."
                  if f["best"] == int(env["EPOCHS"]) - 1 else
                  f"`best_on_validation.fmsr` is the snapshot after epoch {f['best']} (counted from 0), the best of the "
-                 f"snapshots on 100 validation episodes: test success {pct(success(f['best_test']))}. It was chosen on "
+                 f"snapshots on {f['best_validation_episodes']} validation episodes: test success {pct(success(f['best_test']))}. It was chosen on "
                  "validation episodes, not on the test set, as the paper logs its best policy.")
     text = f"""# Egg, six agents, {f['label']}: the paper's budget
 
 The long run of issue 37 (`scripts/long_runs.sh`): `{env.get('CONFIG', '?')}`, seed 0, rapier, the paper's config
-with one stepping thread and one learner thread, {env['EPOCHS']} epochs of 20k env steps, started
+with one stepping thread and one learner thread, {f['epochs']} epochs ({f['env_steps']} env steps with the epochs'
+evaluation episodes), started
 {env.get('STARTED', '?')} with the release binary of commit `{env.get('COMMIT', '?')[:10]}`, on the project's
 development VM (2 cores, no GPU), one core per run. Learning curve and snapshots: `docs/results.md`,
 section "The paper's budget".

@@ -175,7 +175,7 @@ def load_run(records, home, name):
     env = keeper_env(d / "keeper.env")
     metrics = read_metrics(d / "metrics.csv")
     snaps = []
-    for p in sorted((d / "snapshots").glob("epoch-*.json")):
+    for p in sorted((d / "snapshots").glob("epoch-*.json")) + sorted((d / "final").glob("*.json")):
         trim(p)
     for p in sorted((d / "snapshots").glob("epoch-*.test.json")):
         k = int(p.name.split(".")[0].split("-")[1])
@@ -316,13 +316,12 @@ def summary_bullet(runs, anchor):
     """The line of docs/results.md's summary on the long runs: how far, and the latest snapshot's test success."""
     if not runs:
         return ""
+    finals = [long_runs_final.load_final(r["dir"]) for r in runs]
+    if all(finals):
+        return long_runs_final.summary_bullet(finals, anchor)
     done = min(len(r["metrics"]) for r in runs)
-    steps = min(int(r["metrics"][-1]["env_steps"]) if r["metrics"] else 0 for r in runs)
     common = sorted(set.intersection(*[{k for k, ev in r["snapshots"] if ev["test"]} for r in runs]))
-    ended = all(len(r["metrics"]) >= r["planned"] for r in runs)
-    head = ("**At the paper's budget (8M env steps), ended" if ended else
-            f"**Towards the paper's budget (in progress: {done} of {runs[0]['planned']} epochs, {steps / 1e6:.1f}M env steps)")
-    text = f"- {head}, egg, seed 0:** "
+    text = f"- **Towards the paper's budget (in progress: {done} of {runs[0]['planned']} epochs), egg, seed 0:** "
     if common:
         k = common[-1]
         cells = [f"{r['label']} {pct(dict(r['snapshots'])[k]['test']['interval'])} ({dict(r['snapshots'])[k]['test']['drops']} drops)"

@@ -1,0 +1,91 @@
+#!/usr/bin/env bash
+# The keeper of long runs (scripts/long_runs.sh), end to end on a scratch home:
+# two tiny egg runs (Dense+FMSR+IS and Dense, 2 epochs of 2 episodes) are
+# started, must both end with their snapshot, `resume` must leave them alone,
+# `finish` must refuse while a run is unfinished and then write every final
+# evaluation, policy, README, report and the section with the paper's rows.
+# Nothing of the real home, docs/ or pretrained/ is touched.
+#
+#   scripts/test_long_runs.sh      # about 2 minutes with target/release built; needs a clean tree (start's rule)
+#
+# Not in CI: `start` and `finish` build release binaries (the second with
+# `--features mujoco`), which CI's debug build does not give. Run it when the
+# keeper changes. It guards, among others, the race of 2026-11-26: the
+# launcher's liveness probe took the lock for an instant and a driver that
+# met it gave up, leaving its run stopped.
+set -euo pipefail
+repo=$(cd "$(dirname "$0")/.." && pwd)
+scratch=$(mktemp -d)
+trap 'rm -rf "$scratch"' EXIT
+export FMSR_LONG_RUNS=$scratch/home FMSR_LONG_RUNS_RECORDS=$scratch/records \
+  FMSR_LONG_RUNS_PRETRAINED=$scratch/pretrained FMSR_LONG_RUNS_RESULTS=$scratch/results.md \
+  FMSR_LONG_RUNS_TRIALS=20
+keeper=$repo/scripts/long_runs.sh
+fail() { echo "test_long_runs: FAILED: $*" >&2; exit 1; }
+
+for m in dense_fmsr_is dense; do
+  cat > "$scratch/egg_$m.toml" << EOF
+name = "egg_$m"
+method = "$m"
+engine = "rapier"
+
+[env]
+object = "egg"
+success_threshold = 0.1
+
+[trainer]
+seed = 0
+epochs = 2
+cycles = 1
+episodes_per_cycle = 2
+eval_episodes = 2
+
+[replay]
+batches = 2
+batch_size = 32
+buffer_size = 10000
+
+[networks]
+hidden = 32
+layers = 2
+
+[eval]
+episodes = 10
+threshold = 0.4
+EOF
+done
+printf '# Results\n\n<!-- paper-budget-summary:begin (written by scripts/long_runs.sh record) -->\n<!-- paper-budget-summary:end -->\n' \
+  > "$scratch/results.md"
+
+"$keeper" start "$scratch/egg_dense_fmsr_is.toml" "$scratch/egg_dense.toml"
+"$keeper" finish 2> "$scratch/refused" && fail "finish ran before the runs ended"
+grep -q "not every run has ended" "$scratch/refused" || fail "finish refused for another reason: $(cat "$scratch/refused")"
+for _ in $(seq 120); do
+  "$keeper" status | grep -q alive || break
+  sleep 1
+done
+"$keeper" status
+for run in egg_dense_fmsr_is egg_dense; do
+  [ -f "$FMSR_LONG_RUNS/$run/snapshots/epoch-000.fmsr" ] || fail "$run: no snapshot of epoch 0 ($(cat "$FMSR_LONG_RUNS/$run/keeper.log"))"
+  grep -q "finished: 2 of 2 epochs" "$FMSR_LONG_RUNS/$run/keeper.log" || fail "$run did not finish: $(cat "$FMSR_LONG_RUNS/$run/keeper.log")"
+done
+"$keeper" resume | grep -c "finished (2 epochs)" | grep -qx 2 || fail "resume did not see both runs finished"
+
+"$keeper" finish
+for run in egg_dense_fmsr_is egg_dense; do
+  for f in test-rapier validation-rapier test-mujoco trials-rapier trials-mujoco; do
+    [ -s "$FMSR_LONG_RUNS_RECORDS/$run/final/$f.json" ] || fail "$run: no final evaluation $f"
+  done
+  python3 -c "import json,sys; e=json.load(open(sys.argv[1])); assert e['episodes'] == 20, e['episodes']" \
+    "$FMSR_LONG_RUNS_RECORDS/$run/final/trials-rapier.json" || fail "$run: the trials are not 20 episodes"
+  for f in policy.fmsr best_on_validation.fmsr README.md render/episode-0-rapier.gif; do
+    [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/$f" ] || fail "$run: no pretrained/${run}_paper/$f"
+  done
+  # The exported policy carries its evaluations: eval repeats the test one.
+  "$repo/target/release/fmsr" eval "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper" | grep -q "the same results as the evaluation the file carries" \
+    || fail "$run: the policy does not carry its test evaluation"
+done
+[ -s "$FMSR_LONG_RUNS_RECORDS/report/summary.md" ] || fail "no report"
+grep -q "The paper's orderings, Dense+FMSR+IS against Dense, rapier" "$scratch/results.md" || fail "no comparison with the paper"
+grep -q "At the paper's budget (2 epochs), egg, seed 0, ended" "$scratch/results.md" || fail "no summary line"
+echo "test_long_runs: passed"
