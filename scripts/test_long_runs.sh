@@ -16,7 +16,8 @@
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/.." && pwd)
 scratch=$(mktemp -d)
-trap 'rm -rf "$scratch"' EXIT
+# The drivers of a failed test must not outlive it.
+trap 'pkill -f "$scratch/home" 2> /dev/null || true; rm -rf "$scratch"' EXIT
 export FMSR_LONG_RUNS=$scratch/home FMSR_LONG_RUNS_RECORDS=$scratch/records \
   FMSR_LONG_RUNS_PRETRAINED=$scratch/pretrained FMSR_LONG_RUNS_RESULTS=$scratch/results.md \
   FMSR_LONG_RUNS_TRIALS=20
@@ -61,7 +62,8 @@ printf '# Results\n\n<!-- paper-budget-summary:begin (written by scripts/long_ru
 "$keeper" finish 2> "$scratch/refused" && fail "finish ran before the runs ended"
 grep -q "not every run has ended" "$scratch/refused" || fail "finish refused for another reason: $(cat "$scratch/refused")"
 for _ in $(seq 120); do
-  "$keeper" status | grep -q alive || break
+  "$keeper" status > "$scratch/status"
+  grep -q alive "$scratch/status" || break
   sleep 1
 done
 "$keeper" status
@@ -69,7 +71,8 @@ for run in egg_dense_fmsr_is egg_dense; do
   [ -f "$FMSR_LONG_RUNS/$run/snapshots/epoch-000.fmsr" ] || fail "$run: no snapshot of epoch 0 ($(cat "$FMSR_LONG_RUNS/$run/keeper.log"))"
   grep -q "finished: 2 of 2 epochs" "$FMSR_LONG_RUNS/$run/keeper.log" || fail "$run did not finish: $(cat "$FMSR_LONG_RUNS/$run/keeper.log")"
 done
-"$keeper" resume | grep -c "finished (2 epochs)" | grep -qx 2 || fail "resume did not see both runs finished"
+"$keeper" resume > "$scratch/resumed"
+[ "$(grep -c "finished (2 epochs)" "$scratch/resumed")" = 2 ] || fail "resume did not see both runs finished"
 
 "$keeper" finish
 for run in egg_dense_fmsr_is egg_dense; do
@@ -82,8 +85,8 @@ for run in egg_dense_fmsr_is egg_dense; do
     [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/$f" ] || fail "$run: no pretrained/${run}_paper/$f"
   done
   # The exported policy carries its evaluations: eval repeats the test one.
-  "$repo/target/release/fmsr" eval "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper" | grep -q "the same results as the evaluation the file carries" \
-    || fail "$run: the policy does not carry its test evaluation"
+  "$repo/target/release/fmsr" eval "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper" > "$scratch/eval"
+  grep -q "the same results as the evaluation the file carries" "$scratch/eval" || fail "$run: the policy does not carry its test evaluation"
 done
 [ -s "$FMSR_LONG_RUNS_RECORDS/report/summary.md" ] || fail "no report"
 grep -q "The paper's orderings, Dense+FMSR+IS against Dense, rapier" "$scratch/results.md" || fail "no comparison with the paper"
