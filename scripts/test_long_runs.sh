@@ -2,11 +2,12 @@
 # The keeper of long runs (scripts/long_runs.sh), end to end on a scratch home:
 # two tiny egg runs (Dense+FMSR+IS and Dense, 2 epochs of 2 episodes) are
 # started, must both end with their snapshot, `resume` must leave them alone,
+# a driver must wait for a lock held an instant (and train a third epoch),
 # `finish` must refuse while a run is unfinished and then write every final
 # evaluation, policy, README, report and the section with the paper's rows.
 # Nothing of the real home, docs/ or pretrained/ is touched.
 #
-#   scripts/test_long_runs.sh      # about 2 minutes with target/release built; needs a clean tree (start's rule)
+#   scripts/test_long_runs.sh      # about 1 minute with target/release built; needs a clean tree (start's rule)
 #
 # Not in CI: `start` and `finish` build release binaries (the second with
 # `--features mujoco`), which CI's debug build does not give. Run it when the
@@ -74,6 +75,17 @@ done
 "$keeper" resume > "$scratch/resumed"
 [ "$(grep -c "finished (2 epochs)" "$scratch/resumed")" = 2 ] || fail "resume did not see both runs finished"
 
+# A driver that meets a probe of its lock (`alive` holds it for an instant)
+# waits rather than leaving its run stopped: hold the lock for a second while a
+# driver starts on a run given one epoch more.
+dir=$FMSR_LONG_RUNS/egg_dense
+sed -i 's/^EPOCHS=2$/EPOCHS=3/' "$dir/keeper.env"
+flock "$dir/keeper.lock" sleep 1 &
+sleep 0.2
+bash "$dir/keeper.sh" _drive "$dir" >> "$dir/keeper.log" 2>&1
+wait
+grep -q "finished: 3 of 3 epochs" "$dir/keeper.log" || fail "a driver meeting a held lock gave up: $(tail -n 3 "$dir/keeper.log")"
+
 "$keeper" finish
 for run in egg_dense_fmsr_is egg_dense; do
   for f in test-rapier validation-rapier test-mujoco trials-rapier trials-mujoco; do
@@ -90,5 +102,6 @@ for run in egg_dense_fmsr_is egg_dense; do
 done
 [ -s "$FMSR_LONG_RUNS_RECORDS/report/summary.md" ] || fail "no report"
 grep -q "The paper's orderings, Dense+FMSR+IS against Dense, rapier" "$scratch/results.md" || fail "no comparison with the paper"
-grep -q "At the paper's budget (2 epochs), egg, seed 0, ended" "$scratch/results.md" || fail "no summary line"
+grep -q "At the paper's budget (2 epochs), egg, seed 0, ended" "$scratch/results.md" || \
+  grep -q "At the paper's budget (3 epochs), egg, seed 0, ended" "$scratch/results.md" || fail "no summary line"
 echo "test_long_runs: passed"
