@@ -79,6 +79,9 @@ FINALS = ["test-rapier", "validation-rapier", "test-mujoco", "trials-rapier", "t
 
 
 def wilson(k, n):
+    """The 95 % Wilson interval (p, lo, hi) of k successes in n; None when n is 0."""
+    if n == 0:
+        return None
     p = k / n
     d = 1 + Z * Z / n
     c = (p + Z * Z / (2 * n)) / d
@@ -110,7 +113,7 @@ def verdict(paper_sign, ours):
 
 
 def pct(i):
-    return f"{100 * i[0]:.0f} % [{100 * i[1]:.0f}, {100 * i[2]:.0f}]"
+    return "n/a" if i is None else f"{100 * i[0]:.0f} % [{100 * i[1]:.0f}, {100 * i[2]:.0f}]"
 
 
 def pts(i):

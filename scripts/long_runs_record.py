@@ -9,7 +9,7 @@ docs/results.md (or appends the section). It also draws the learning curves
 side by side as an SVG, docs/results/paper_budget/curves.svg.
 
 Success intervals are 95 % Wilson intervals, and differences Newcombe's hybrid
-score intervals: the formulas of fmsr_core::interval, written out again here.
+score intervals (long_runs_final.py's, the formulas of fmsr_core::interval).
 """
 
 import argparse
@@ -23,36 +23,11 @@ import tempfile
 from pathlib import Path
 
 import long_runs_final
+from long_runs_final import newcombe as difference, pct, pts, wilson
 
 BEGIN = "<!-- paper-budget:begin (written by scripts/long_runs.sh record) -->"
 END = "<!-- paper-budget:end -->"
-Z = 1.959963984540054
 LABELS = {"egg_dense_fmsr_is": "Dense+FMSR+IS", "egg_dense": "Dense"}
-
-
-def wilson(k, n):
-    if n == 0:
-        return None
-    p = k / n
-    d = 1 + Z * Z / n
-    c = (p + Z * Z / (2 * n)) / d
-    h = Z / d * math.sqrt(p * (1 - p) / n + Z * Z / (4 * n * n))
-    return p, max(0.0, c - h), min(1.0, c + h)
-
-
-def difference(a, b):
-    d = a[0] - b[0]
-    lo = d - math.sqrt((a[0] - a[1]) ** 2 + (b[2] - b[0]) ** 2)
-    hi = d + math.sqrt((a[2] - a[0]) ** 2 + (b[0] - b[1]) ** 2)
-    return d, lo, hi
-
-
-def pct(i):
-    return "n/a" if i is None else f"{100 * i[0]:.0f}% [{100 * i[1]:.0f}, {100 * i[2]:.0f}]"
-
-
-def pts(i):
-    return f"{100 * i[0]:+.0f} pts [{100 * i[1]:+.0f}, {100 * i[2]:+.0f}]"
 
 
 def read_metrics(path):
