@@ -283,6 +283,24 @@ def summary_bullet(finals, anchor):
     return f"{text}. The paper: {paper}. Row by row against the paper: [the paper's budget](#{anchor}).\n"
 
 
+def pretrained_index(finals):
+    """The lines of pretrained/README.md on the long runs' policies (empty until `finish` ran)."""
+    if not finals:
+        return ""
+    lines = ["At the paper's budget (issue 37, `scripts/long_runs.sh finish`; egg, seed 0, rapier, the paper's config), "
+             "the policies after the last epoch, no selection:", "",
+             "| Policy | Configuration | Epochs | Test success, rapier (100) | Validation, rapier | Test success, MuJoCo (100) | "
+             "Drops in the Table II trials, rapier | Best snapshot on validation: test success |", "|---|---|---|---|---|---|---|---|"]
+    for f in finals:
+        fin = f["finals"]
+        n = fin["trials-rapier"]
+        best_cell = f"epoch {f['best']}: {pct(success(f['best_test']))}" if f["best_test"] else "n/a"
+        lines.append(f"| [`{f['name']}_paper`]({f['name']}_paper/README.md) | {f['label']}, 6 agents | {f['epochs']} | "
+                     f"**{pct(success(fin['test-rapier']))}** | {pct(success(fin['validation-rapier']))} | "
+                     f"{pct(success(fin['test-mujoco']))} | {n['outcomes']['drop']} of {n['episodes']} | {best_cell} |")
+    return "\n".join(lines) + "\n"
+
+
 def readme(run_records, out, commit):
     f = load_final(run_records)
     if f is None:

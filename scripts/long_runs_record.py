@@ -285,6 +285,8 @@ def section(runs, commit, records_rel, pretrained_rel, lost=()):
 
 SUMMARY_BEGIN = "<!-- paper-budget-summary:begin (written by scripts/long_runs.sh record) -->"
 SUMMARY_END = "<!-- paper-budget-summary:end -->"
+PRETRAINED_BEGIN = "<!-- paper-budget-policies:begin (written by scripts/long_runs.sh finish) -->"
+PRETRAINED_END = "<!-- paper-budget-policies:end -->"
 
 
 def summary_bullet(runs, anchor):
@@ -343,6 +345,14 @@ def main():
     text = replace_between(text, SUMMARY_BEGIN, SUMMARY_END, summary_bullet(runs, anchor)) or text
     write_atomic(a.results, text)
     print(f"wrote the section into {a.results} and {a.records / 'curves.svg'}")
+    index = a.pretrained / "README.md"
+    finals = [long_runs_final.load_final(r["dir"]) for r in runs]
+    if index.exists() and finals and all(finals):
+        new_index = replace_between(index.read_text(), PRETRAINED_BEGIN, PRETRAINED_END,
+                                    long_runs_final.pretrained_index(finals))
+        if new_index is not None:
+            write_atomic(index, new_index)
+            print(f"wrote the long runs' policies into {index}")
 
 
 if __name__ == "__main__":

@@ -58,6 +58,9 @@ EOF
 done
 printf '# Results\n\n<!-- paper-budget-summary:begin (written by scripts/long_runs.sh record) -->\n<!-- paper-budget-summary:end -->\n' \
   > "$scratch/results.md"
+mkdir -p "$scratch/pretrained"
+printf '# Policies\n\n<!-- paper-budget-policies:begin (written by scripts/long_runs.sh finish) -->\n<!-- paper-budget-policies:end -->\n' \
+  > "$scratch/pretrained/README.md"
 
 "$keeper" start "$scratch/egg_dense_fmsr_is.toml" "$scratch/egg_dense.toml"
 "$keeper" finish 2> "$scratch/refused" && fail "finish ran before the runs ended"
@@ -104,4 +107,5 @@ done
 grep -q "The paper's orderings, Dense+FMSR+IS against Dense, rapier" "$scratch/results.md" || fail "no comparison with the paper"
 grep -q "At the paper's budget (2 epochs), egg, seed 0, ended" "$scratch/results.md" || \
   grep -q "At the paper's budget (3 epochs), egg, seed 0, ended" "$scratch/results.md" || fail "no summary line"
+grep -q "| \[\`egg_dense_paper\`\](egg_dense_paper/README.md) | Dense, 6 agents |" "$scratch/pretrained/README.md" || fail "no row in pretrained/README.md"
 echo "test_long_runs: passed"
