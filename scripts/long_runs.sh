@@ -108,12 +108,12 @@ drive() {
   source "$dir/keeper.env"
   export RAYON_NUM_THREADS=1
   log "driver $$ on $(basename "$dir") with $BIN"
-  local k target done snap
+  local k target trained snap
   for k in "${snapshot_epochs[@]}"; do
     target=$((k + 1))
     [ "$target" -le "$EPOCHS" ] || break
-    done=$(epochs_done "$dir")
-    if [ "$done" -lt "$target" ]; then
+    trained=$(epochs_done "$dir")
+    if [ "$trained" -lt "$target" ]; then
       if [ ! -f "$dir/run/checkpoint.bin" ]; then
         # Nothing to resume (a first epoch that never ended): start afresh, in
         # the checkout it was started from so provenance.json names the commit.
@@ -123,12 +123,12 @@ drive() {
       else
         "$BIN" train --out "$dir/run" --resume --epochs "$target"
       fi
-      done=$(epochs_done "$dir")
+      trained=$(epochs_done "$dir")
     fi
     snap=$dir/snapshots/epoch-$(printf %03d "$k").fmsr
     if [ ! -f "$snap" ]; then
-      if [ "$done" -ne "$target" ]; then
-        log "snapshot of epoch $k missed: the run is at $done epochs"
+      if [ "$trained" -ne "$target" ]; then
+        log "snapshot of epoch $k missed: the run is at $trained epochs"
         continue
       fi
       mkdir -p "$dir/snapshots"
@@ -160,8 +160,7 @@ launch() {
   cp "$repo/scripts/long_runs.sh" "$dir/keeper.sh.tmp" && mv "$dir/keeper.sh.tmp" "$dir/keeper.sh"
   setsid nohup nice -n 19 bash "$dir/keeper.sh" _drive "$dir" >> "$dir/keeper.log" 2>&1 < /dev/null &
   # The driver takes its lock at once; wait for it so a second call sees it.
-  local i
-  for i in $(seq 50); do alive "$dir" && break; sleep 0.1; done
+  for _ in $(seq 50); do alive "$dir" && break; sleep 0.1; done
   echo "$(basename "$dir"): started at epoch $(epochs_done "$dir") (log $dir/keeper.log)"
 }
 
@@ -229,17 +228,17 @@ status() {
   printf '%-20s %9s %10s %6s %6s %8s %13s %s\n' run epochs env_steps train eval s/epoch sessions_left driver
   local dir
   for dir in $(runs); do
-    local csv=$dir/run/metrics.csv done total
-    done=$(epochs_done "$dir")
+    local csv=$dir/run/metrics.csv trained total
+    trained=$(epochs_done "$dir")
     total=$(planned "$dir")
-    if [ "$done" -gt 0 ]; then
+    if [ "$trained" -gt 0 ]; then
       # epoch,success_rate,train_success_rate,drop_rate,env_steps,...,seconds (9th)
       local last med
       last=$(tail -n 1 "$csv")
       med=$(tail -n +2 "$csv" | tail -n 10 | cut -d, -f9 | sort -g | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }')
-      printf '%-20s %4d/%-4d %10s %6.3f %6.3f %8.0f %13.1f %s\n' "$(basename "$dir")" "$done" "$total" \
+      printf '%-20s %4d/%-4d %10s %6.3f %6.3f %8.0f %13.1f %s\n' "$(basename "$dir")" "$trained" "$total" \
         "$(echo "$last" | cut -d, -f5)" "$(echo "$last" | cut -d, -f3)" "$(echo "$last" | cut -d, -f2)" "$med" \
-        "$(awk -v n=$((total - done)) -v s="$med" -v t=$session_seconds 'BEGIN { print n * s / t }')" \
+        "$(awk -v n=$((total - trained)) -v s="$med" -v t=$session_seconds 'BEGIN { print n * s / t }')" \
         "$(alive "$dir" && echo alive || echo stopped)"
     else
       printf '%-20s %4d/%-4d %10s %6s %6s %8s %13s %s\n' "$(basename "$dir")" 0 "$total" - - - - - \
