@@ -4,7 +4,7 @@
 #
 #   scripts/long_runs.sh start CONFIG...   copy the release binary, start each run
 #   scripts/long_runs.sh resume            restart every unfinished run (first thing every session)
-#   scripts/long_runs.sh status            epochs, env steps, success, s/epoch, sessions left, alive
+#   scripts/long_runs.sh status            epochs, env steps, success, s/epoch, sessions left, alive, next snapshot
 #   scripts/long_runs.sh record            evaluate new snapshots, copy small files into docs/
 #   scripts/long_runs.sh finish            once every run has ended: issue 37's item 4 (below)
 #
@@ -223,9 +223,23 @@ resume() {
   [ "$any" = 1 ] || echo "no runs in $home"
 }
 
+# The next snapshot after `$1` of `$2` epochs trained, and when it should be
+# taken at `$3` seconds an epoch (while the driver runs).
+next_snapshot() {
+  local k
+  for k in "${snapshot_epochs[@]}"; do
+    if [ "$k" -ge "$1" ] && [ "$k" -lt "$2" ]; then
+      echo "epoch $k, $(date -u -d "@$(awk -v n=$((k + 1 - $1)) -v s="$3" -v now="$(date +%s)" 'BEGIN { printf "%d", now + n * s }')" +%FT%H:%MZ)"
+      return
+    fi
+  done
+  echo "none left"
+}
+
 status() {
   [ -d "$home" ] || { echo "no long-run home at $home"; return; }
-  printf '%-20s %9s %10s %6s %6s %8s %13s %s\n' run epochs env_steps train eval s/epoch sessions_left driver
+  printf '%-20s %9s %10s %6s %6s %8s %13s %-7s %s\n' run epochs env_steps train eval s/epoch sessions_left driver \
+    "next snapshot (at the median pace)"
   local dir
   for dir in $(runs); do
     local csv=$dir/run/metrics.csv trained total
@@ -236,13 +250,13 @@ status() {
       local last med
       last=$(tail -n 1 "$csv")
       med=$(tail -n +2 "$csv" | tail -n 10 | cut -d, -f9 | sort -g | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }')
-      printf '%-20s %4d/%-4d %10s %6.3f %6.3f %8.0f %13.1f %s\n' "$(basename "$dir")" "$trained" "$total" \
+      printf '%-20s %4d/%-4d %10s %6.3f %6.3f %8.0f %13.1f %-7s %s\n' "$(basename "$dir")" "$trained" "$total" \
         "$(echo "$last" | cut -d, -f5)" "$(echo "$last" | cut -d, -f3)" "$(echo "$last" | cut -d, -f2)" "$med" \
         "$(awk -v n=$((total - trained)) -v s="$med" -v t=$session_seconds 'BEGIN { print n * s / t }')" \
-        "$(alive "$dir" && echo alive || echo stopped)"
+        "$(alive "$dir" && echo alive || echo stopped)" "$(next_snapshot "$trained" "$total" "$med")"
     else
-      printf '%-20s %4d/%-4d %10s %6s %6s %8s %13s %s\n' "$(basename "$dir")" 0 "$total" - - - - - \
-        "$(alive "$dir" && echo alive || echo stopped)"
+      printf '%-20s %4d/%-4d %10s %6s %6s %8s %13s %-7s %s\n' "$(basename "$dir")" 0 "$total" - - - - - \
+        "$(alive "$dir" && echo alive || echo stopped)" -
     fi
   done
 }
