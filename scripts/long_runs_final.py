@@ -185,8 +185,9 @@ def table1_rows(a, b, engine):
                     f"{d[0]:+.{p}f} [{d[1]:+.{p}f}, {d[2]:+.{p}f}] | {verdict(xa - xb, d)} |")
     da, db = drops(a["finals"][f"trials-{engine}"]), drops(b["finals"][f"trials-{engine}"])
     n = a["finals"][f"trials-{engine}"]["episodes"]
+    paper_drops = PAPER_TABLE2[a["task"]].get(a["label"])
     rows.append(f"| Drops ({n} trials; the paper's Table II has no Dense row) | "
-                f"{PAPER_TABLE2[a['task']].get(a['label'], ('', '', 'n/a'))[2]} of 500 | n/a | {pct(da)} | {pct(db)} | "
+                f"{f'{paper_drops[2]} of 500' if paper_drops else 'n/a'} | n/a | {pct(da)} | {pct(db)} | "
                 f"{pts(newcombe(da, db))} | {verdict(-1, newcombe(da, db))} (the paper's conclusion: fewer drops) |")
     return rows
 
@@ -238,7 +239,7 @@ def section_lines(runs, records_rel, pretrained_rel):
     by_label = {f["label"]: f for f in finals}
     lines = ["", "### At the end: against the paper (issue 37, item 4)", "",
              "Written by `scripts/long_runs.sh finish`: the policy after the last epoch of each run (no selection), "
-             f"evaluated on the fixed test set (100 episodes), on the validation episodes and on the first "
+             f"evaluated on the fixed test set ({finals[0]['finals']['test-rapier']['episodes']} episodes), on the validation episodes and on the first "
              f"{finals[0]['finals']['trials-rapier']['episodes']} test episodes (the paper's Table II), on rapier "
              f"(trained on) and on MuJoCo; evaluations in [`{records_rel}/<run>/final/`]({records_rel}/), "
              f"`fmsr report` over both in [`{records_rel}/report/summary.md`]({records_rel}/report/summary.md), "
@@ -251,7 +252,7 @@ def section_lines(runs, records_rel, pretrained_rel):
         lines.append("")
         a, b = by_label.get("Dense+FMSR+IS"), by_label.get("Dense")
         if a and b:
-            lines += [f"**The paper's orderings, Dense+FMSR+IS against Dense, {engine}** (Table I over 100 test episodes; "
+            lines += [f"**The paper's orderings, Dense+FMSR+IS against Dense, {engine}** (the paper's Table I: 100 trials; "
                       "our values mean ± std over the episodes):", "",
                       "| Measure | The paper: Dense+FMSR+IS | The paper: Dense | Ours: Dense+FMSR+IS | Ours: Dense | "
                       "Ours: difference (95 %) | The paper's ordering |", "|---|---|---|---|---|---|---|"]
