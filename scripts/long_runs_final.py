@@ -165,10 +165,13 @@ def load_final(run_records):
             "epochs": len(metrics) - 1, "env_steps": env_steps}
 
 
-def table1_rows(a, b, engine):
-    """Success and Table I's measures, a against b on one engine, beside the paper's."""
-    ta, tb = a["finals"][f"test-{engine}"], b["finals"][f"test-{engine}"]
-    pa, pb = PAPER_TABLE1[a["task"]][a["label"]], PAPER_TABLE1[a["task"]][b["label"]]
+ORDERING_HEADER = ["| Measure | The paper: Dense+FMSR+IS | The paper: Dense | Ours: Dense+FMSR+IS | Ours: Dense | "
+                   "Ours: difference (95 %) | The paper's ordering |", "|---|---|---|---|---|---|---|"]
+
+
+def ordering_rows(ta, tb, task, labels):
+    """Test success and Table I's measures of evaluation ta against tb, beside the paper's rows for `labels`."""
+    pa, pb = PAPER_TABLE1[task][labels[0]], PAPER_TABLE1[task][labels[1]]
     rows = []
     sa, sb = success(ta), success(tb)
     rows.append(f"| Success (test, {ta['episodes']}) | {pa[0]} % | {pb[0]} % | {pct(sa)} | {pct(sb)} | "
@@ -183,6 +186,12 @@ def table1_rows(a, b, engine):
         d = mean_difference(ma, mb)
         rows.append(f"| {NAMES[key]} | {xa}±{sda} | {xb}±{sdb} | {ma[0]:.{p}f}±{ma[1]:.{p}f} | {mb[0]:.{p}f}±{mb[1]:.{p}f} | "
                     f"{d[0]:+.{p}f} [{d[1]:+.{p}f}, {d[2]:+.{p}f}] | {verdict(xa - xb, d)} |")
+    return rows
+
+
+def table1_rows(a, b, engine):
+    """Success and Table I's measures, a against b on one engine, beside the paper's; then the drops in the trials."""
+    rows = ordering_rows(a["finals"][f"test-{engine}"], b["finals"][f"test-{engine}"], a["task"], (a["label"], b["label"]))
     da, db = drops(a["finals"][f"trials-{engine}"]), drops(b["finals"][f"trials-{engine}"])
     n = a["finals"][f"trials-{engine}"]["episodes"]
     paper_drops = PAPER_TABLE2[a["task"]].get(a["label"])
@@ -253,9 +262,7 @@ def section_lines(runs, records_rel, pretrained_rel):
         a, b = by_label.get("Dense+FMSR+IS"), by_label.get("Dense")
         if a and b:
             lines += [f"**The paper's orderings, Dense+FMSR+IS against Dense, {engine}** (the paper's Table I: 100 trials; "
-                      "our values mean ± std over the episodes):", "",
-                      "| Measure | The paper: Dense+FMSR+IS | The paper: Dense | Ours: Dense+FMSR+IS | Ours: Dense | "
-                      "Ours: difference (95 %) | The paper's ordering |", "|---|---|---|---|---|---|---|"]
+                      "our values mean ± std over the episodes):", ""] + ORDERING_HEADER
             lines += table1_rows(a, b, engine)
             lines.append("")
         lines += [f"**Failure types (Table II), {engine}:**", "",
