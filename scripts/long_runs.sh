@@ -329,13 +329,26 @@ eval_once() {
 
 # Copies policy file $1 to $2 and writes into it its evaluations: the fixed
 # test set on both engines and the validation episodes; unless $2 exists.
+# With $3, each evaluation also goes there as JSON (test-rapier.json,
+# validation-rapier.json, test-mujoco.json), from the same `fmsr eval`.
 carry_evaluations() {
-  local from=$1 to=$2
+  local from=$1 to=$2 json=${3:-} what args
   [ -f "$to" ] && return
   cp "$from" "$to.tmp.fmsr"
-  nice -n 5 "$fmsr" eval "$to.tmp.fmsr" --record > /dev/null
-  nice -n 5 "$fmsr" eval "$to.tmp.fmsr" --set validation --record > /dev/null
-  nice -n 5 "$fmsr" eval "$to.tmp.fmsr" --engine mujoco --record > /dev/null
+  for what in test-rapier validation-rapier test-mujoco; do
+    case $what in
+      test-rapier) args=() ;;
+      validation-rapier) args=(--set validation) ;;
+      test-mujoco) args=(--engine mujoco) ;;
+    esac
+    if [ -n "$json" ]; then
+      nice -n 5 "$fmsr" eval "$to.tmp.fmsr" "${args[@]}" --record --out "$json/$what.json.tmp" > "$json/$what.log" 2>&1 \
+        || die "fmsr eval $to ${args[*]} failed: $json/$what.log"
+      mv "$json/$what.json.tmp" "$json/$what.json"
+    else
+      nice -n 5 "$fmsr" eval "$to.tmp.fmsr" "${args[@]}" --record > /dev/null
+    fi
+  done
   mv "$to.tmp.fmsr" "$to"
 }
 
@@ -352,12 +365,10 @@ finish_run() {
    "$BIN" export "$dir/run" --out "$dir/final.fmsr.tmp" | tee "$dir/final.log"
    grep -q "after $EPOCHS epochs" "$dir/final.log" || die "$name: the checkpoint is not the last epoch's"
    mv "$dir/final.fmsr.tmp" "$dir/final.fmsr")
-  eval_once "$out/test-rapier.json" "$dir/final.fmsr"
-  eval_once "$out/validation-rapier.json" "$dir/final.fmsr" --set validation
-  eval_once "$out/test-mujoco.json" "$dir/final.fmsr" --engine mujoco
+  carry_evaluations "$dir/final.fmsr" "$pre/policy.fmsr" "$out"
+  # The trials only as JSON: the file carries one test evaluation per engine, the 100.
   eval_once "$out/trials-rapier.json" "$dir/final.fmsr" --episodes "$trials"
   eval_once "$out/trials-mujoco.json" "$dir/final.fmsr" --engine mujoco --episodes "$trials"
-  carry_evaluations "$dir/final.fmsr" "$pre/policy.fmsr"
   best=$(python3 "$repo/scripts/long_runs_final.py" best "$records/$name")
   last=$(($(planned "$dir") - 1))
   if [ "$best" != "$last" ]; then

@@ -142,8 +142,7 @@ def best(run_records):
     """The snapshot epoch best on the validation episodes (ties: the earlier), or None."""
     scored = []
     for p in sorted((run_records / "snapshots").glob("epoch-*.validation.json")):
-        e = json.loads(p.read_text())
-        scored.append((round(e["success_rate"] * e["episodes"]) / e["episodes"], -int(p.name.split(".")[0][6:])))
+        scored.append((success(json.loads(p.read_text()))[0], -int(p.name.split(".")[0][6:])))
     return -max(scored)[1] if scored else None
 
 
@@ -201,6 +200,11 @@ def table1_rows(a, b, engine):
     return rows
 
 
+def against_paper(d, fewer="below", more="above"):
+    """Where our rate lies against the paper's, from the interval d of ours minus the paper's."""
+    return "as the paper" if d[1] <= 0 <= d[2] else (f"{fewer} the paper" if d[2] < 0 else f"{more} the paper")
+
+
 def absolute_rows(runs, engine):
     """Success and drop rates against the paper's own values (on a common scale)."""
     rows = []
@@ -216,7 +220,7 @@ def absolute_rows(runs, engine):
             s = success(e)
             d = newcombe(s, p)
             rows.append(f"| {r['label']} | success, {what} | {pct(p)} | {pct(s)} | "
-                        f"{pts(d)} | {'as the paper' if d[1] <= 0 <= d[2] else ('below the paper' if d[2] < 0 else 'above the paper')} |")
+                        f"{pts(d)} | {against_paper(d)} |")
         t2 = PAPER_TABLE2[r["task"]].get(r["label"])
         if t2:
             p = wilson(t2[2], PAPER_TRIALS["table2"])
@@ -224,7 +228,7 @@ def absolute_rows(runs, engine):
             s = drops(e)
             d = newcombe(s, p)
             rows.append(f"| {r['label']} | drops after the last epoch ({e['episodes']} trials) | {pct(p)} | {pct(s)} | {pts(d)} | "
-                        f"{'as the paper' if d[1] <= 0 <= d[2] else ('fewer than the paper' if d[2] < 0 else 'more than the paper')} |")
+                        f"{against_paper(d, 'fewer than', 'more than')} |")
     return rows
 
 
@@ -240,11 +244,8 @@ def table2_rows(runs, engine):
     return rows
 
 
-def section_lines(runs, records_rel, pretrained_rel):
-    """The comparison with the paper, for the section of docs/results.md; [] until `finish` ran."""
-    finals = [load_final(r) for r in runs]
-    if not finals or any(f is None for f in finals):
-        return []
+def section_lines(finals, records_rel, pretrained_rel):
+    """The comparison with the paper of the runs' final evaluations (`load_final`), for the section of docs/results.md."""
     by_label = {f["label"]: f for f in finals}
     lines = ["", "### At the end: against the paper (issue 37, item 4)", "",
              "Written by `scripts/long_runs.sh finish`: the policy after the last epoch of each run (no selection), "
@@ -292,9 +293,7 @@ def summary_bullet(finals, anchor):
 
 
 def pretrained_index(finals):
-    """The lines of pretrained/README.md on the long runs' policies (empty until `finish` ran)."""
-    if not finals:
-        return ""
+    """The lines of pretrained/README.md on the long runs' policies."""
     lines = ["At the paper's budget (issue 37, `scripts/long_runs.sh finish`; egg, seed 0, rapier, the paper's config), "
              "the policies after the last epoch, no selection:", "",
              "| Policy | Configuration | Epochs | Test success, rapier (100) | Validation, rapier | Test success, MuJoCo (100) | "

@@ -203,16 +203,19 @@ def lost_runs(lost, records_rel):
     return lines
 
 
+def latest_common_snapshot(runs):
+    """The latest snapshot epoch every run has evaluated on the test set, or None."""
+    common = set.intersection(*[{k for k, ev in r["snapshots"] if ev["test"]} for r in runs]) if runs else set()
+    return max(common, default=None)
+
+
 def latest_orderings(runs):
     """The paper's orderings of Table I at the latest snapshot both runs have on the test set (one seed, in progress)."""
     by_label = {r["label"]: r for r in runs}
     a, b = by_label.get("Dense+FMSR+IS"), by_label.get("Dense")
-    if not a or not b:
+    k = latest_common_snapshot([a, b]) if a and b else None
+    if k is None:
         return []
-    common = sorted({k for k, ev in a["snapshots"] if ev["test"]} & {k for k, ev in b["snapshots"] if ev["test"]})
-    if not common:
-        return []
-    k = common[-1]
     path = lambda r: r["dir"] / "snapshots" / f"epoch-{k:03d}.test.json"
     ta, tb = (json.loads(path(r).read_text()) for r in (a, b))
     if "stability" not in ta or "stability" not in tb:
@@ -223,8 +226,17 @@ def latest_orderings(runs):
             ] + long_runs_final.ORDERING_HEADER + long_runs_final.ordering_rows(ta, tb, ta["task"], ("Dense+FMSR+IS", "Dense"))
 
 
-def section(runs, commit, records_rel, pretrained_rel, lost=()):
-    lines = [BEGIN, "## The paper's budget: the egg, Dense+FMSR+IS against Dense, 400 epochs", ""]
+HEADING = "The paper's budget: the egg, Dense+FMSR+IS against Dense, 400 epochs"
+
+
+def anchor(heading):
+    """The anchor a Markdown renderer (GitHub's rule) gives a heading."""
+    return "".join(c for c in heading.lower() if c.isalnum() or c in " -_").replace(" ", "-")
+
+
+def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
+    """The section's lines between its markers; `finals` are the runs' final evaluations, or None before `finish`."""
+    lines = [f"## {HEADING}", ""]
     lines.append(
         "Issue 37: both runs at the paper's config (`configs/egg_dense_fmsr_is.toml`, `configs/egg_dense.toml`: "
         "400 epochs of 25 cycles x 8 rollouts x 100 steps = 20k env steps, 25 x 25 gradient steps of 1024 samples, "
@@ -297,10 +309,8 @@ def section(runs, commit, records_rel, pretrained_rel, lost=()):
             lines.append(f"- {r['label']}: the snapshot best on validation so far is epoch {best}, test success {pct(t['interval']) if t else 'n/a'}.")
     lines += latest_orderings(runs)
     lines += lost_runs(lost, records_rel)
-    final = long_runs_final.section_lines([r["dir"] for r in runs], records_rel, pretrained_rel)
-    lines += final or ["", "Not yet: the final evaluation of issue 37, item 4 (500 episodes, MuJoCo, `fmsr report`, the paper's rows), "
+    lines += long_runs_final.section_lines(finals, records_rel, pretrained_rel) if finals else ["", "Not yet: the final evaluation of issue 37, item 4 (500 episodes, MuJoCo, `fmsr report`, the paper's rows), "
                        "which waits for both runs to reach 400 epochs (`scripts/long_runs.sh finish`)."]
-    lines.append(END)
     return "\n".join(lines) + "\n"
 
 
@@ -310,28 +320,29 @@ PRETRAINED_BEGIN = "<!-- paper-budget-policies:begin (written by scripts/long_ru
 PRETRAINED_END = "<!-- paper-budget-policies:end -->"
 
 
-def summary_bullet(runs, anchor):
+def summary_bullet(runs, finals, link):
     """The line of docs/results.md's summary on the long runs: how far, and the latest snapshot's test success."""
     if not runs:
         return ""
-    finals = [long_runs_final.load_final(r["dir"]) for r in runs]
-    if all(finals):
-        return long_runs_final.summary_bullet(finals, anchor)
+    if finals:
+        return long_runs_final.summary_bullet(finals, link)
     done = min(len(r["metrics"]) for r in runs)
-    common = sorted(set.intersection(*[{k for k, ev in r["snapshots"] if ev["test"]} for r in runs]))
+    k = latest_common_snapshot(runs)
     text = f"- **Towards the paper's budget (in progress: {done} of {runs[0]['planned']} epochs), egg, seed 0:** "
-    if common:
-        k = common[-1]
+    if k is not None:
         cells = [f"{r['label']} {pct(dict(r['snapshots'])[k]['test']['interval'])} ({dict(r['snapshots'])[k]['test']['drops']} drops)"
                  for r in runs]
         text += f"after {k + 1} epochs, test success " + " against ".join(cells)
         if len(runs) == 2:
             a, b = (dict(r["snapshots"])[k]["test"]["interval"] for r in runs)
             text += f"; difference {pts(difference(a, b))}"
-        text += ". The paper: 91 % against 35 %, no drop in 500 trials."
+        paper = long_runs_final.PAPER_TABLE1["egg"]
+        rates = " against ".join(f"{paper[r['label']][0]} %" for r in runs if r["label"] in paper)
+        text += (f". The paper: {rates}; "
+                 f"Dense+FMSR+IS drops {long_runs_final.PAPER_TABLE2['egg']['Dense+FMSR+IS'][2]} of 500 trials.")
     else:
         text += "no snapshot evaluated yet."
-    return f"{text} Details: [the paper's budget](#{anchor}).\n"
+    return f"{text} Details: [the paper's budget](#{link}).\n"
 
 
 def replace_between(text, begin, end, new):
@@ -359,16 +370,16 @@ def main():
     pretrained_rel = os.path.relpath(a.pretrained, a.results.parent)
     text = a.results.read_text()
     lost = load_lost(a.records.parent / (a.records.name + "_lost"))
-    new = section(runs, a.commit, rel, pretrained_rel, lost)
-    replaced = replace_between(text, BEGIN, END, new.split(BEGIN, 1)[1].lstrip("\n").rsplit(END, 1)[0])
-    text = replaced if replaced is not None else text.rstrip("\n") + "\n\n" + new
-    anchor = "the-papers-budget-the-egg-densefmsris-against-dense-400-epochs"
-    text = replace_between(text, SUMMARY_BEGIN, SUMMARY_END, summary_bullet(runs, anchor)) or text
+    # The final evaluations, once `finish` wrote them for every run.
+    finals = [long_runs_final.load_final(r["dir"]) for r in runs]
+    finals = finals if finals and all(finals) else None
+    new = section(runs, finals, a.commit, rel, pretrained_rel, lost)
+    text = replace_between(text, BEGIN, END, new) or f"{text.rstrip()}\n\n{BEGIN}\n{new}{END}\n"
+    text = replace_between(text, SUMMARY_BEGIN, SUMMARY_END, summary_bullet(runs, finals, anchor(HEADING))) or text
     write_atomic(a.results, text)
     print(f"wrote the section into {a.results} and {a.records / 'curves.svg'}")
     index = a.pretrained / "README.md"
-    finals = [long_runs_final.load_final(r["dir"]) for r in runs]
-    if index.exists() and finals and all(finals):
+    if index.exists() and finals:
         new_index = replace_between(index.read_text(), PRETRAINED_BEGIN, PRETRAINED_END,
                                     long_runs_final.pretrained_index(finals))
         if new_index is not None:
