@@ -1,3 +1,4 @@
+# shellcheck shell=bash
 # Sourced by the steps that run on the GPU machine (start.sh, finish.sh): the
 # packed binaries (unpacked from bin.tar.xz, or its parts, on first use), model, Vulkan loader and MuJoCo library of scripts/gpu/pack.sh.
 # Needs root for the loader (the .debs are unpacked into /).
@@ -38,9 +39,13 @@ fi
 if [ -d "$pack/lib" ]; then
   export LD_LIBRARY_PATH=$PWD/$pack/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
 fi
-export FMSR_ASSETS_DIR=$PWD/$pack/assets
+# The model: this pack's, else the one another pack brought to this machine
+# in an earlier call (pack.sh --no-assets; FMSR_ASSETS_DIR names it).
+if [ -d "$pack/assets" ]; then
+  export FMSR_ASSETS_DIR=$PWD/$pack/assets
+fi
 if [ -z "${XDG_RUNTIME_DIR:-}" ]; then
   XDG_RUNTIME_DIR=$(mktemp -d)
   export XDG_RUNTIME_DIR
 fi
-FMSR=$pack/bin/fmsr
+export FMSR=$pack/bin/fmsr

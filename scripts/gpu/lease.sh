@@ -2,7 +2,7 @@
 # A short GPU lease in one command, on the GPU machine (issue 40, items 2a and
 # 2b), for a pack made with
 #
-#   scripts/gpu/pack.sh --bench ddpg_update [--bench paper_epoch] [--features vulkan,cuda]
+#   scripts/gpu/pack.sh --bench ddpg_update [--features vulkan,cuda]
 #
 # (a pack in parts, .gpu-N beside .gpu: first a call of its own per .gpu-N
 # that carries it and runs `true`, on the same machine), and then, there, in
@@ -16,17 +16,23 @@
 #    updates (its parity check): the device of what follows, else cpu
 #    (FMSR_LEASE_DEVICES: other candidates, in order);
 # 3. the same update in PyTorch on CUDA (scripts/pytorch_reference);
-# 4. the block's Dense+FMSR+IS at the paper's config alone until its first
+# 4. two epochs of one cycle each of the block's Dense+FMSR+IS on that device
+#    (seconds collecting against updating);
+# 5. the block's Dense+FMSR+IS at the paper's config alone until its first
 #    epoch is done (a paper epoch on all cores and the GPU: metrics.csv's
 #    seconds, env steps/s and updates/s), then Dense beside it
 #    (scripts/gpu/start.sh), both until 150 s before the end; then
 #    scripts/gpu/finish.sh: evaluation, rendering, report, policies.
 #
+# FMSR_PACK names another pack (say a `cuda` one beside the `vulkan` one, in a
+# second call on the same machine); FMSR_LEASE_RUNS=none leaves out step 5,
+# FMSR_LEASE_PYTORCH=0 step 3 (measured already in this lease).
+#
 # Every step has its own time limit and a failing step does not stop the
 # next: what comes back says which failed. OUT_DIR gets lease.log (all of the
 # above), runs.tar.gz and one policy file per run.
 set -uo pipefail
-cd "$(dirname "$0")/../.."
+cd "$(dirname "$0")/../.." || exit
 if [ $# -lt 1 ]; then
   echo "usage: $0 OUT_DIR [SECONDS]" >&2
   exit 2
@@ -67,15 +73,28 @@ for candidate in ${FMSR_LEASE_DEVICES:-vulkan:0 cuda:0 vulkan wgpu:0 wgpu}; do
 done
 rm -f "$out/ddpg_update.txt"
 echo "device for what follows: $device"
-step "the same update in PyTorch on CUDA"
-timeout 90 scripts/pytorch_reference/run.sh 50 --device cuda --batch 256,1024 || echo "PyTorch reference failed (exit $?)"
-
-if [ -x "$bin/paper_epoch" ]; then
-  step "one cycle of a paper epoch on $device: collecting against updating"
-  FMSR_DEVICE=$device FMSR_EPOCH_CYCLES=1 FMSR_EPOCH_CONFIG=configs/block_dense_fmsr_is.toml \
-    timeout 150 "$bin/paper_epoch" || echo "paper_epoch failed (exit $?)"
+if [ "${FMSR_LEASE_PYTORCH:-1}" != 0 ]; then
+  step "the same update in PyTorch on CUDA"
+  timeout 90 scripts/pytorch_reference/run.sh 50 --device cuda --batch 256,1024 || echo "PyTorch reference failed (exit $?)"
 fi
 
+step "two one-cycle epochs of the block's Dense+FMSR+IS on $device and $(nproc) cores (epoch 0 with first-use compilation and tuning)"
+# The paper's config with 1 cycle (800 env steps, 25 joint updates) and no
+# evaluation episodes: metrics.csv's env steps/s while collecting and
+# updates/s, epoch 1 warm. x25 cycles is a paper epoch without its evaluation.
+cycle=runs/gpu/cycle_${device//:/_}
+sed -e 's/^cycles = .*/cycles = 1/' -e 's/^eval_episodes = .*/eval_episodes = 0/' \
+  configs/block_dense_fmsr_is.toml > "$out/cycle.toml"
+rm -rf "$cycle"
+timeout 150 "$FMSR" train --config "$out/cycle.toml" --device "$device" --epochs 2 --out "$cycle" --quiet \
+  || echo "one-cycle epochs failed (exit $?)"
+cut -d, -f1,5-9 "$cycle/metrics.csv" 2>/dev/null
+rm -f "$out/cycle.toml"
+
+if [ "${FMSR_LEASE_RUNS:-}" = none ]; then
+  step "done"
+  exit 0
+fi
 runs=(block_dense_fmsr_is block_dense)
 step "a paper epoch: ${runs[0]} alone on $device and $(nproc) cores"
 FMSR_GPU_DEVICE=$device scripts/gpu/start.sh "configs/${runs[0]}.toml" || echo "start ${runs[0]} failed"

@@ -13,20 +13,24 @@
 #   scripts/gpu/pack.sh --features vulkan,cuda   # both GPU backends (cuda: scripts/cuda_llvm.sh's LLVM)
 #   scripts/gpu/pack.sh --out DIR        # another folder (must be ignored by git)
 #   scripts/gpu/pack.sh --bench ddpg_update        # and this bench's binary (--test NAME: a test's)
+#   scripts/gpu/pack.sh --no-assets      # no model: a second pack for a machine that has one
+#                                        # (FMSR_ASSETS_DIR=$PWD/.gpu/assets there)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 features=vulkan
 mujoco=0
+assets=1
 out=.gpu
 extras=()  # "bench NAME" or "test NAME"
 while [ $# -gt 0 ]; do
   case $1 in
     --mujoco) mujoco=1 ;;
     --cpu) features= ;;
+    --no-assets) assets=0 ;;
     --features) features=$2; shift ;;
     --out) out=$2; shift ;;
     --bench | --test) extras+=("${1#--} $2"); shift ;;
-    *) echo "usage: $0 [--mujoco] [--cpu | --features LIST] [--out DIR] [--bench NAME | --test NAME]..." >&2; exit 2 ;;
+    *) echo "usage: $0 [--mujoco] [--cpu | --features LIST] [--no-assets] [--out DIR] [--bench NAME | --test NAME]..." >&2; exit 2 ;;
   esac
   shift
 done
@@ -70,10 +74,14 @@ strip "$out"/bin/*
 # their code (burn, cubecl, wgpu), which a per-file compression stores again
 # for each (fmsr and two benches: 37 MiB together, 54 MiB apart).
 tar cf - -C "$out/bin" . | xz -T1 -6 --lzma2=dict=512MiB > "$out/bin.tar.xz"
-rm -r "$out/bin"
+rm -r "${out:?}/bin"
 # The model: the extracted folder only (the wheel it came from stays in the cache).
-model=$(target/release/fmsr assets fetch)
-cp -r "${model%/assets}" "$out/assets/"
+if [ "$assets" = 1 ]; then
+  model=$(target/release/fmsr assets fetch)
+  cp -r "${model%/assets}" "$out/assets/"
+else
+  rmdir "$out/assets"
+fi
 if [ "$mujoco" = 1 ]; then
   mkdir -p "$out/lib"
   cp -L target/mujoco/lib/libmujoco.so* "$out/lib/"
