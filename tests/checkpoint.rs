@@ -43,6 +43,26 @@ fn stepping_threads_do_not_change_the_history() {
     assert_eq!(one[1].env_steps, 2 * (10 * 4 + 20) * 20);
 }
 
+/// Guards `trainer.threads`, which the trainer once never passed to its
+/// collector: every run stepped its environments one after another.
+#[test]
+fn the_trainer_steps_its_environments_on_trainer_threads() {
+    let threads = |envs: usize, threads: Option<usize>| {
+        let config = TrainerConfig {
+            envs: Some(envs),
+            threads,
+            episodes_per_cycle: envs,
+            ..common::trainer_config(Method::DenseFmsrIs, 9, 1)
+        };
+        team_reach_trainer_config(AlgorithmKind::Maddpg, Method::DenseFmsrIs, config).collector().threads()
+    };
+    assert_eq!(threads(4, Some(1)), 1);
+    assert_eq!(threads(4, Some(3)), 3);
+    assert_eq!(threads(2, Some(8)), 2, "at most one thread per environment");
+    let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+    assert_eq!(threads(4, None), cores.min(4));
+}
+
 /// A MADDPG Dense+FMSR+IS trainer on TeamReach whose replay holds `capacity` episodes.
 fn trainer_with_capacity(seed: u64, epochs: usize, capacity: usize) -> Trainer<TeamReach, AnyLearner> {
     let method = Method::DenseFmsrIs;

@@ -138,6 +138,12 @@ impl<E: Env> Collector<E> {
         self.envs.len()
     }
 
+    /// Threads stepping the environments (1: on the calling thread).
+    #[must_use]
+    pub fn threads(&self) -> usize {
+        self.pool.as_ref().map_or(1, rayon::ThreadPool::current_num_threads)
+    }
+
     /// The (first) environment.
     #[must_use]
     pub fn env(&self) -> &E {

@@ -26,8 +26,8 @@ pub struct TrainerConfig {
     /// call per step; `None` is `episodes_per_cycle`, so a cycle's rollouts run
     /// at once. The history depends on it (exploration noise is drawn per row).
     pub envs: Option<usize>,
-    /// Threads that step the environments; `None` is the number of cores. The
-    /// history does not depend on it.
+    /// Threads that step the environments (at most one per environment);
+    /// `None` is the number of cores. The history does not depend on it.
     pub threads: Option<usize>,
     /// Discount of the whole method: occupancy (eq. 1) and critic targets; `None` is `1 - 1/T`.
     pub gamma: Option<f64>,

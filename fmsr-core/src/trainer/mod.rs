@@ -77,7 +77,8 @@ impl<E: Env + Send, A: Algorithm> Trainer<E, A> {
     }
 
     /// As [`Trainer::new`] with several copies of one environment, which run
-    /// rollouts in lockstep ([`Collector::rollouts`]).
+    /// rollouts in lockstep ([`Collector::rollouts`]), stepped on
+    /// `config.threads` threads (at most one per environment).
     ///
     /// # Errors
     /// [`CoreError`] naming the first setting that does not fit the environments.
@@ -96,7 +97,8 @@ impl<E: Env + Send, A: Algorithm> Trainer<E, A> {
         let rewards = config.shadow.agent_rewards(&spec)?;
         let occupancy = config.shadow.occupancy(&spec, gamma)?;
         let shadow = ShadowRewards::new(&spec, occupancy, rewards)?;
-        let collector = Collector::with_envs(envs, layout)?;
+        let threads = config.num_threads().min(envs.len());
+        let collector = Collector::with_envs(envs, layout)?.with_threads(threads)?;
         Self::from_parts(config, collector, shadow, algorithm)
     }
 }
@@ -105,7 +107,9 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
     /// A trainer of `algorithm` from its parts: a collector, and shadow rewards
     /// of your own (your own [`OccupancyEstimator`] and [`ShadowReward`]).
     /// `config.shadow` is not used to build anything here, except its
-    /// `max_scale` check: `shadow` carries the estimator and rewards.
+    /// `max_scale` check: `shadow` carries the estimator and rewards; nor is
+    /// `config.threads`: the collector steps on its own
+    /// ([`Collector::with_threads`]).
     ///
     /// # Errors
     /// [`CoreError`] when the config is invalid, or the shadow rewards or the
