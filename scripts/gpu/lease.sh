@@ -18,14 +18,15 @@
 # 3. the same update in PyTorch on CUDA (scripts/pytorch_reference);
 # 4. two epochs of one cycle each of the block's Dense+FMSR+IS on that device
 #    (seconds collecting against updating);
-# 5. the block's Dense+FMSR+IS at the paper's config alone until its first
+# 5. collecting on 1, 2, 4 and 8 stepping threads (FMSR_LEASE_SCALING=0: not);
+# 6. the block's Dense+FMSR+IS at the paper's config alone until its first
 #    epoch is done (a paper epoch on all cores and the GPU: metrics.csv's
 #    seconds, env steps/s and updates/s), then Dense beside it
 #    (scripts/gpu/start.sh), both until 150 s before the end; then
 #    scripts/gpu/finish.sh: evaluation, rendering, report, policies.
 #
 # FMSR_PACK names another pack (say a `cuda` one beside the `vulkan` one, in a
-# second call on the same machine); FMSR_LEASE_RUNS=none leaves out step 5,
+# second call on the same machine); FMSR_LEASE_RUNS=none leaves out step 6,
 # FMSR_LEASE_PYTORCH=0 step 3 (measured already in this lease).
 #
 # Every step has its own time limit and a failing step does not stop the
@@ -95,6 +96,24 @@ timeout 150 "$FMSR" train --config "$out/cycle.toml" --device "$device" --epochs
   || echo "one-cycle epochs failed (exit $?)"
 cut -d, -f1,5-9 "$cycle/metrics.csv" 2>/dev/null
 rm -f "$out/cycle.toml"
+
+if [ "${FMSR_LEASE_SCALING:-1}" != 0 ]; then
+  step "collecting against stepping threads: one cycle of 8 envs (800 env steps), networks on the CPU"
+  # Collecting took 35 s of a 48 s paper epoch on 16 cores and the GPU (second
+  # lease of 2026-11-26): the trainer stepped its 8 envs on one thread until
+  # e9d1dd2. How far does collecting scale with stepping threads there?
+  for threads in 1 2 4 8; do
+    sed -e 's/^cycles = .*/cycles = 1/' -e 's/^eval_episodes = .*/eval_episodes = 0/' -e 's/^batches = .*/batches = 1/' \
+      -e "s/^\[trainer\]\$/[trainer]\nthreads = $threads/" configs/block_dense_fmsr_is.toml > "$out/threads.toml"
+    rm -rf "runs/gpu/threads_$threads"
+    if timeout 60 "$FMSR" train --config "$out/threads.toml" --device cpu --epochs 1 --out "runs/gpu/threads_$threads" --quiet; then
+      echo "threads $threads: $(cut -d, -f7 "runs/gpu/threads_$threads/metrics.csv" | tail -n 1) env steps/s collecting"
+    else
+      echo "threads $threads: failed (exit $?)"
+    fi
+  done
+  rm -f "$out/threads.toml"
+fi
 
 if [ "${FMSR_LEASE_RUNS:-}" = none ]; then
   step "done"
