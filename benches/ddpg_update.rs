@@ -173,6 +173,7 @@ fn joint_update(c: &mut Criterion) {
         group.throughput(Throughput::Elements(1));
         for threads in [1, 2] {
             let mut l = learner(threads);
+            warm_up(|| drop(l.learn_batch(&b, &BOUNDS).expect("learn")));
             group.bench_function(format!("threads_{threads}"), |bench| {
                 bench.iter(|| black_box(l.learn_batch(black_box(&b), &BOUNDS).expect("learn")));
             });
@@ -182,9 +183,20 @@ fn joint_update(c: &mut Criterion) {
 
     let mut l = learner(2);
     let inputs: Vec<Vec<f32>> = (0..6).map(|i| values(layout.actor_input_dim(i), 40 + i)).collect();
+    warm_up(|| drop(l.act(&inputs, 1, ActMode::Evaluate).expect("act")));
     c.bench_function("ddpg_act_6_agents_one_observation", |bench| {
         bench.iter(|| black_box(l.act(black_box(&inputs), 1, ActMode::Evaluate).expect("act")));
     });
+}
+
+/// Three untimed calls before criterion's own warm-up: on a GPU the first use
+/// of each shape compiles and tunes kernels, which took minutes at batch 1024
+/// on an H200 (2026-11-26) and fell into criterion's samples (a median of
+/// 916 ms over a range of 24 ms to 2.7 s).
+fn warm_up(mut f: impl FnMut()) {
+    for _ in 0..3 {
+        f();
+    }
 }
 
 /// Our updates/s over `iters` joint updates after a warm-up.
