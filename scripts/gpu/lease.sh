@@ -88,9 +88,11 @@ step "two one-cycle epochs of the block's Dense+FMSR+IS on $device and $(nproc) 
 # The paper's config with 1 cycle (800 env steps, 25 joint updates) and no
 # evaluation episodes: metrics.csv's env steps/s while collecting and
 # updates/s, epoch 1 warm. x25 cycles is a paper epoch without its evaluation.
+one_cycle() {  # ARGS: more sed expressions
+  sed -e 's/^cycles = .*/cycles = 1/' -e 's/^eval_episodes = .*/eval_episodes = 0/' "$@" configs/block_dense_fmsr_is.toml
+}
 cycle=runs/gpu/cycle_${device//:/_}
-sed -e 's/^cycles = .*/cycles = 1/' -e 's/^eval_episodes = .*/eval_episodes = 0/' \
-  configs/block_dense_fmsr_is.toml > "$out/cycle.toml"
+one_cycle > "$out/cycle.toml"
 rm -rf "$cycle"
 timeout 150 "$FMSR" train --config "$out/cycle.toml" --device "$device" --epochs 2 --out "$cycle" --quiet \
   || echo "one-cycle epochs failed (exit $?)"
@@ -103,8 +105,7 @@ if [ "${FMSR_LEASE_SCALING:-1}" != 0 ]; then
   # lease of 2026-11-26): the trainer stepped its 8 envs on one thread until
   # e9d1dd2. How far does collecting scale with stepping threads there?
   for threads in 1 2 4 8; do
-    sed -e 's/^cycles = .*/cycles = 1/' -e 's/^eval_episodes = .*/eval_episodes = 0/' -e 's/^batches = .*/batches = 1/' \
-      -e "s/^\[trainer\]\$/[trainer]\nthreads = $threads/" configs/block_dense_fmsr_is.toml > "$out/threads.toml"
+    one_cycle -e 's/^batches = .*/batches = 1/' -e "s/^\[trainer\]\$/[trainer]\nthreads = $threads/" > "$out/threads.toml"
     rm -rf "runs/gpu/threads_$threads"
     if timeout 60 "$FMSR" train --config "$out/threads.toml" --device cpu --epochs 1 --out "runs/gpu/threads_$threads" --quiet; then
       echo "threads $threads: $(cut -d, -f7 "runs/gpu/threads_$threads/metrics.csv" | tail -n 1) env steps/s collecting"
