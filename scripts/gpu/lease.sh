@@ -27,7 +27,9 @@
 #
 # FMSR_PACK names another pack (say a `cuda` one beside the `vulkan` one, in a
 # second call on the same machine); FMSR_LEASE_RUNS=none leaves out step 6,
-# FMSR_LEASE_PYTORCH=0 step 3 (measured already in this lease).
+# FMSR_LEASE_PYTORCH=0 step 3 (measured already in this lease);
+# FMSR_LEASE_CYCLE_SECONDS limits step 4 (default 150), FMSR_LEASE_CUBECL_LOG=1
+# brings back its cubecl log.
 #
 # Every step has its own time limit and a failing step does not stop the
 # next: what comes back says which failed. OUT_DIR gets lease.log (all of the
@@ -94,8 +96,13 @@ one_cycle() {  # ARGS: more sed expressions
 cycle=runs/gpu/cycle_${device//:/_}
 one_cycle > "$out/cycle.toml"
 rm -rf "$cycle"
-timeout 150 "$FMSR" train --config "$out/cycle.toml" --device "$device" --epochs 2 --out "$cycle" --quiet \
-  || echo "one-cycle epochs failed (exit $?)"
+# FMSR_LEASE_CUBECL_LOG=1: cubecl's log of these epochs (compilation, tuning,
+# profiling) comes back as cubecl.log.xz, to see where a first use goes.
+log=()
+[ "${FMSR_LEASE_CUBECL_LOG:-0}" = 1 ] && log=(env "CUBECL_DEBUG_LOG=$out/cubecl.log")
+timeout "${FMSR_LEASE_CYCLE_SECONDS:-150}" "${log[@]}" "$FMSR" train --config "$out/cycle.toml" --device "$device" \
+  --epochs 2 --out "$cycle" --quiet || echo "one-cycle epochs failed (exit $?)"
+[ -f "$out/cubecl.log" ] && xz -T0 "$out/cubecl.log"
 cut -d, -f1,5-9 "$cycle/metrics.csv" 2>/dev/null
 rm -f "$out/cycle.toml"
 
