@@ -112,13 +112,14 @@ impl<E: Env> Collector<E> {
         Ok(Self { envs, pool: None, layout, env_steps: 0 })
     }
 
-    /// Steps the environments on `threads` threads (1: on the calling thread).
+    /// Steps the environments on `threads` threads, at most one per
+    /// environment (1: on the calling thread).
     ///
     /// # Errors
     /// [`CoreError::InvalidConfig`] for 0 threads or a pool that cannot start.
     pub fn with_threads(mut self, threads: usize) -> Result<Self, CoreError> {
         let bad = |reason: String| CoreError::InvalidConfig { key: "trainer.threads".into(), reason };
-        self.pool = match threads {
+        self.pool = match threads.min(self.envs.len()) {
             0 => return Err(bad("must be at least 1".into())),
             1 => None,
             n => Some(
@@ -279,8 +280,9 @@ impl<E: Env + Send> Collector<E> {
     ) -> Result<Vec<T>, CoreError> {
         let envs = &mut self.envs[..k];
         let results: Vec<Result<T, E::Error>> = match &self.pool {
-            Some(pool) => pool.install(|| envs.par_iter_mut().enumerate().map(|(e, env)| f(env, e)).collect()),
-            None => envs.iter_mut().enumerate().map(|(e, env)| f(env, e)).collect(),
+            // One environment (a single rollout) stays on the calling thread.
+            Some(pool) if k > 1 => pool.install(|| envs.par_iter_mut().enumerate().map(|(e, env)| f(env, e)).collect()),
+            _ => envs.iter_mut().enumerate().map(|(e, env)| f(env, e)).collect(),
         };
         results.into_iter().map(|r| r.map_err(env_err)).collect()
     }

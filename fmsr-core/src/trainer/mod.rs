@@ -97,8 +97,7 @@ impl<E: Env + Send, A: Algorithm> Trainer<E, A> {
         let rewards = config.shadow.agent_rewards(&spec)?;
         let occupancy = config.shadow.occupancy(&spec, gamma)?;
         let shadow = ShadowRewards::new(&spec, occupancy, rewards)?;
-        let threads = config.num_threads().min(envs.len());
-        let collector = Collector::with_envs(envs, layout)?.with_threads(threads)?;
+        let collector = Collector::with_envs(envs, layout)?.with_threads(config.num_threads())?;
         Self::from_parts(config, collector, shadow, algorithm)
     }
 }
