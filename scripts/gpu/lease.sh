@@ -12,7 +12,7 @@
 #
 # 1. the machine: GPU, driver, cores, the pack's commit, `fmsr devices`;
 # 2. benches/ddpg_update.rs (criterion; batch 256 and 1024, action selection)
-#    on the first of vulkan:0, cuda:0, vulkan, wgpu:0, wgpu that runs it and computes the CPU's
+#    on the first of vulkan:0, cuda:0, wgpu:0 that runs it and computes the CPU's
 #    updates (its parity check): the device of what follows, else cpu
 #    (FMSR_LEASE_DEVICES: other candidates, in order);
 # 3. the same update in PyTorch on CUDA (scripts/pytorch_reference);
@@ -64,7 +64,9 @@ if ! printf '%s\n' "${devices[@]}" | grep -q vulkan; then
 fi
 
 device=cpu
-for candidate in ${FMSR_LEASE_DEVICES:-vulkan:0 cuda:0 vulkan wgpu:0 wgpu}; do
+# Not `vulkan` or `wgpu` too: they name the default adapter, on a one-GPU
+# machine the same GPU, and a retry there cost the lease of 2026-11-26 110 s.
+for candidate in ${FMSR_LEASE_DEVICES:-vulkan:0 cuda:0 wgpu:0}; do
   printf '%s\n' "${devices[@]}" | grep -qx "$candidate" || continue
   if [ ! -x "$bin/ddpg_update" ]; then
     echo "no ddpg_update in the pack: $candidate, listed, without the parity check"
