@@ -62,7 +62,7 @@ struct TrainArgs {
     /// The experiment (TOML); with --resume the run's own config.toml is used.
     #[arg(long, default_value = "configs/egg_dense_fmsr_is_quick.toml")]
     config: PathBuf,
-    /// Physics engine, overriding the config.
+    /// Physics engine, overriding the config (with --resume: must be the run's).
     #[arg(long, value_enum)]
     engine: Option<EngineArg>,
     /// Seed of the trainer (and of the networks), overriding the config.
@@ -290,7 +290,17 @@ fn resolve_config(args: &TrainArgs) -> Result<(ExperimentConfig, RunDir, bool)> 
         (config, dir)
     };
     if let Some(e) = args.engine {
-        config.engine = e.into();
+        let engine = Engine::from(e);
+        if resume && engine != config.engine {
+            bail!(
+                "--engine {} differs from the run's engine {}: a resumed run keeps its engine \
+                 (`fmsr eval --engine {}` evaluates it on the other)",
+                engine.key(),
+                config.engine.key(),
+                engine.key()
+            );
+        }
+        config.engine = engine;
     }
     if let Some(seed) = args.seed {
         if resume && seed != config.trainer.seed {

@@ -424,6 +424,29 @@ fn bad_configs_are_rejected_naming_the_key() {
     }
 }
 
+// Guards `fmsr train --resume --engine`: a resumed run keeps its engine, as it
+// keeps its seed. `--engine` once replaced the run's engine silently: the rest
+// of the run trained on the other engine, config.toml was rewritten to name it,
+// and the run's earlier `eval.json` then read as that engine's evaluation.
+#[test]
+fn a_resumed_run_keeps_its_engine() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = tmp.path().join("run");
+    std::fs::create_dir_all(&run).unwrap();
+    // A run directory of the tiny (rapier) config; refusing needs no checkpoint.
+    std::fs::copy(tiny_config(tmp.path(), ""), run.join("config.toml")).unwrap();
+    let before = std::fs::read_to_string(run.join("config.toml")).unwrap();
+    assert!(before.contains("engine = \"rapier\""), "{before}");
+    let run_s = run.to_str().unwrap();
+    let out = fmsr(&["train", "--out", run_s, "--resume", "--engine", "mujoco"]);
+    assert!(!out.status.success(), "{}", text(&out));
+    assert!(text(&out).contains("a resumed run keeps its engine"), "{}", text(&out));
+    assert_eq!(std::fs::read_to_string(run.join("config.toml")).unwrap(), before);
+    // Its own engine named again is no change: this run fails later, for want of a checkpoint.
+    let out = fmsr(&["train", "--out", run_s, "--resume", "--engine", "rapier"]);
+    assert!(!text(&out).contains("keeps its engine"), "{}", text(&out));
+}
+
 #[test]
 fn every_algorithm_trains_on_the_hand() {
     let tmp = tempfile::tempdir().unwrap();
