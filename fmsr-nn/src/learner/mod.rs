@@ -365,3 +365,41 @@ impl Learner {
 pub(crate) fn matrix(values: Vec<f32>, rows: usize, cols: usize, device: &Device) -> Tensor<2> {
     Tensor::<2>::from_data(TensorData::new(values, [rows, cols]), device)
 }
+
+#[cfg(test)]
+mod tests {
+    use fmsr_core::agent::ObservationLayout;
+    use fmsr_core::replay::ReplayConfig;
+    use fmsr_core::spec::{AgentSpec, EnvSpec};
+
+    use super::{Learner, LearnerParts};
+    use crate::config::{NetworkConfig, Stacking};
+
+    // Guards `networks.threads`: the groups' updates run on that many worker
+    // threads, at most one per group. The determinism tests compare thread
+    // counts and pass alike whether or not the setting is applied.
+    #[test]
+    fn the_groups_update_on_networks_threads() {
+        let agent = |i: usize| AgentSpec { name: format!("a{i}"), action_slots: vec![i], local_obs_dim: 2 };
+        let spec = EnvSpec {
+            agents: (0..3).map(agent).collect(),
+            action_dim: 3,
+            obs_dim: 4,
+            goal_dim: 1,
+            episode_len: 5,
+            features: vec![],
+            reward_range: (-1.0, 0.0),
+        };
+        let layout = ObservationLayout::new(spec, vec![vec![]; 3]).unwrap();
+        let workers = |stacking: Stacking, threads: usize| {
+            let net = NetworkConfig::new().with_hidden(8).with_layers(2).with_stacking(stacking).with_threads(threads);
+            let replay = ReplayConfig { buffer_size: 100, ..ReplayConfig::default() };
+            let learner = Learner::new(LearnerParts::new(layout.clone(), net, replay, 0.9), 1, 1).unwrap();
+            (learner.groups.len(), learner.pools.len())
+        };
+        assert_eq!(workers(Stacking::PerAgent, 1), (3, 0), "one thread: on the calling thread");
+        assert_eq!(workers(Stacking::PerAgent, 2), (3, 2));
+        assert_eq!(workers(Stacking::PerAgent, 8), (3, 3), "at most one thread per group");
+        assert_eq!(workers(Stacking::All, 2), (1, 0), "one group: one thread");
+    }
+}
