@@ -525,7 +525,10 @@ impl ExperimentConfig {
     /// policies ([`Teammates::Current`]), `global actors`
     /// ([`ActorView::Global`]) and `shared critic (trunk)`
     /// ([`CriticSharing`]), so that an ablation is never pooled with the
-    /// method's runs.
+    /// method's runs; and by the algorithm and the training engine when they
+    /// are not the paper's (MADDPG, rapier here), e.g. `Dense, MATD3, trained
+    /// on MuJoCo`, so that a report never pools runs of two algorithms or two
+    /// engines as seeds of one configuration.
     #[must_use]
     pub fn label(&self) -> String {
         let mut label = match &self.env.agents {
@@ -545,6 +548,14 @@ impl ExperimentConfig {
             CriticSharing::PerAgent => {}
             CriticSharing::SharedTrunk => label.push_str(", shared critic trunk"),
             CriticSharing::Shared => label.push_str(", shared critic"),
+        }
+        match self.algorithm {
+            AlgorithmKind::Maddpg => {}
+            AlgorithmKind::Matd3 => label.push_str(", MATD3"),
+            AlgorithmKind::Masac => label.push_str(", MASAC"),
+        }
+        if self.engine == Engine::Mujoco {
+            label.push_str(", trained on MuJoCo");
         }
         label
     }
@@ -668,7 +679,7 @@ impl ExperimentConfig {
 mod label_tests {
     use std::path::Path;
 
-    use super::ExperimentConfig;
+    use super::{AlgorithmKind, Engine, ExperimentConfig};
 
     // Guards the report's grouping: a single agent owning the whole hand is a
     // configuration of its own, never pooled with the paper's six-agent Sparse.
@@ -707,6 +718,20 @@ mod label_tests {
         let method = ExperimentConfig::load(&root.join("block_dense_fmsr_is.toml")).unwrap();
         assert_eq!(ablation.label(), "Dense+FMSR+IS, current teammates");
         assert_eq!(method.label(), "Dense+FMSR+IS");
+    }
+
+    // Guards the report's grouping by algorithm and training engine: a MATD3
+    // or MuJoCo-trained run was once labelled as the method alone, and so
+    // pooled with the MADDPG, rapier runs as one more seed.
+    #[test]
+    fn other_algorithms_and_engines_are_labelled_apart() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/lite");
+        let method = ExperimentConfig::load(&root.join("block_dense.toml")).unwrap();
+        let with = |algorithm, engine| ExperimentConfig { algorithm, engine, ..method.clone() }.label();
+        assert_eq!(with(AlgorithmKind::Maddpg, Engine::Rapier), "Dense");
+        assert_eq!(with(AlgorithmKind::Matd3, Engine::Rapier), "Dense, MATD3");
+        assert_eq!(with(AlgorithmKind::Masac, Engine::Mujoco), "Dense, MASAC, trained on MuJoCo");
+        assert_eq!(with(AlgorithmKind::Maddpg, Engine::Mujoco), "Dense, trained on MuJoCo");
     }
 
     /// `section.key` → value of every setting of a TOML file (the run's name left out).
