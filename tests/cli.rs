@@ -372,12 +372,14 @@ fn render_writes_a_gif_and_png_frames_of_a_test_episode() {
 fn bad_configs_are_rejected_naming_the_key() {
     let tmp = tempfile::tempdir().unwrap();
     type Edit = fn(String) -> String;
-    let cases: [(Edit, &str); 15] = [
+    let cases: [(Edit, &str); 16] = [
         (|t| t + "[run]\ncheckpoint_replay = false\n", "`run`"),
         (|t| t.replace("batch_size = 32", "batch_size = \"many\""), "batch_size"),
         (|t| t.replace("hidden = 32", "hiden = 32"), "networks.hiden"),
         // One owner per setting: the method owns the task reward, shadow rewards and sharing.
         (|t| t.replace("[env]\n", "[env]\nreward = \"sparse\"\n"), "env.reward"),
+        // Named itself, not as `drop_height` (the key its check once shared).
+        (|t| t.replace("[env]\n", "[env]\ntouch_threshold = -1.0\n"), "`touch_threshold`"),
         (|t| t.replace("[sharing]\n", "[sharing]\nenabled = false\n"), "sharing.enabled"),
         (|t| t.replace("method = \"dense_fmsr_is\"", "method = \"dense_fmsr\""), "`sharing`"),
         // A section of an algorithm that is not chosen.

@@ -26,8 +26,8 @@ pub struct ShadowConfig {
     /// `|alpha sum_k z_k|` to its mean per-step task reward `|w_i r|` over the
     /// first cycle's episodes (default 1.0: shadow rewards must not outweigh the
     /// task). Training stops with an error naming both values when an agent's
-    /// ratio is larger; `inf` disables the check. Every epoch logs the ratios
-    /// (`EpochStats::shadow_scale`).
+    /// ratio is larger; `inf` disables the check. Every epoch logs both means
+    /// per agent (`EpochStats::task_reward_abs`, `EpochStats::shadow_reward_abs`).
     pub max_scale: f64,
 }
 

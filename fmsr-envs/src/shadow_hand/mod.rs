@@ -264,8 +264,11 @@ impl ShadowHandConfig {
         if !(self.position_noise.is_finite() && self.position_noise >= 0.0) {
             return bad("position_noise", format!("{} must be >= 0", self.position_noise));
         }
-        if !(self.drop_height.is_finite() && self.touch_threshold.is_finite() && self.touch_threshold >= 0.0) {
-            return bad("drop_height", "drop_height and touch_threshold must be finite (threshold >= 0)".into());
+        if !self.drop_height.is_finite() {
+            return bad("drop_height", format!("{} must be finite", self.drop_height));
+        }
+        if !(self.touch_threshold.is_finite() && self.touch_threshold >= 0.0) {
+            return bad("touch_threshold", format!("{} must be finite and >= 0", self.touch_threshold));
         }
         if self.min_active_touch > NUM_TOUCH {
             return bad("min_active_touch", format!("at most {NUM_TOUCH}"));
