@@ -451,7 +451,7 @@ impl ExperimentConfig {
         }
         let config = ExperimentConfig::deserialize(toml::Value::Table(value)).map_err(|e| parse_err(e.to_string()))?;
         config.validate()?;
-        Ok(config.with_algorithm_section())
+        Ok(config.with_algorithm_section().with_sharing_section())
     }
 
     /// Reads and parses a TOML experiment file.
@@ -466,7 +466,8 @@ impl ExperimentConfig {
     /// [`ExperimentError::Encode`] if a value cannot be written as TOML.
     pub fn to_toml(&self) -> Result<String, ExperimentError> {
         let err = |e: toml::ser::Error| ExperimentError::Encode { what: "config.toml", reason: e.to_string() };
-        let mut table = toml::Table::try_from(self.clone().with_algorithm_section()).map_err(err)?;
+        let mut table =
+            toml::Table::try_from(self.clone().with_algorithm_section().with_sharing_section()).map_err(err)?;
         if let Some(toml::Value::Table(env)) = table.get_mut("env") {
             env.remove("reward");
         }
@@ -600,6 +601,24 @@ impl ExperimentConfig {
             AlgorithmKind::Maddpg => self.maddpg = Some(self.maddpg_config()),
             AlgorithmKind::Matd3 => self.matd3 = Some(self.matd3_config()),
             AlgorithmKind::Masac => self.masac = Some(self.masac_config()),
+        }
+        self
+    }
+
+    /// The config with the `[sharing]` section written out (its defaults where
+    /// the file left it out) when the method shares, for the reason of
+    /// [`ExperimentConfig::with_algorithm_section`].
+    ///
+    /// ```
+    /// use fmsr::experiment::ExperimentConfig;
+    /// let text = "name = \"x\"\nmethod = \"dense_fmsr_is\"\n";
+    /// let config = ExperimentConfig::from_toml(text, "x.toml".as_ref()).unwrap();
+    /// assert!(config.sharing.is_some() && config.to_toml().unwrap().contains("[sharing]"));
+    /// ```
+    #[must_use]
+    pub fn with_sharing_section(mut self) -> Self {
+        if self.method.sharing() && self.sharing.is_none() {
+            self.sharing = Some(self.sharing_config());
         }
         self
     }
