@@ -191,13 +191,18 @@ def ordering_rows(ta, tb, task, labels):
 def table1_rows(a, b, engine):
     """Success and Table I's measures, a against b on one engine, beside the paper's; then the drops in the trials."""
     rows = ordering_rows(a["finals"][f"test-{engine}"], b["finals"][f"test-{engine}"], a["task"], (a["label"], b["label"]))
-    da, db = drops(a["finals"][f"trials-{engine}"]), drops(b["finals"][f"trials-{engine}"])
-    n = a["finals"][f"trials-{engine}"]["episodes"]
-    paper_drops = PAPER_TABLE2[a["task"]].get(a["label"])
-    rows.append(f"| Drops ({n} trials; the paper's Table II has no Dense row) | "
-                f"{f'{paper_drops[2]} of 500' if paper_drops else 'n/a'} | n/a | {pct(da)} | {pct(db)} | "
-                f"{pts(newcombe(da, db))} | {verdict(-1, newcombe(da, db))} (the paper's conclusion: fewer drops) |")
+    trials = a["finals"][f"trials-{engine}"], b["finals"][f"trials-{engine}"]
+    rows.append(drops_row(*trials, a["task"], (a["label"], b["label"]), f"{trials[0]['episodes']} trials"))
     return rows
+
+
+def drops_row(ea, eb, task, labels, what):
+    """The drops of evaluation ea against eb, beside the paper's Table II for labels[0] (it has no Dense row)."""
+    da, db = drops(ea), drops(eb)
+    paper_drops = PAPER_TABLE2[task].get(labels[0])
+    return (f"| Drops ({what}; the paper's Table II has no Dense row) | "
+            f"{f'{paper_drops[2]} of 500' if paper_drops else 'n/a'} | n/a | {pct(da)} | {pct(db)} | "
+            f"{pts(newcombe(da, db))} | {verdict(-1, newcombe(da, db))} (the paper's conclusion: fewer drops) |")
 
 
 def against_paper(d, fewer="below", more="above"):

@@ -210,9 +210,10 @@ def latest_common_snapshot(runs):
 
 
 def latest_orderings(runs):
-    """The paper's orderings of Table I at the latest snapshot both runs have on the test set (one seed, in progress)."""
+    """The paper's orderings of Table I, and the drops, at the latest snapshot both runs have on the test set (one seed, in progress)."""
+    labels = ("Dense+FMSR+IS", "Dense")
     by_label = {r["label"]: r for r in runs}
-    a, b = by_label.get("Dense+FMSR+IS"), by_label.get("Dense")
+    a, b = (by_label.get(label) for label in labels)
     k = latest_common_snapshot([a, b]) if a and b else None
     if k is None:
         return []
@@ -220,10 +221,11 @@ def latest_orderings(runs):
     ta, tb = (json.loads(path(r).read_text()) for r in (a, b))
     if "stability" not in ta or "stability" not in tb:
         return []
-    return ["", f"The paper's orderings of Table I at snapshot {k}, on the fixed test set (rapier; our values mean ± std "
+    return ["", f"The paper's orderings of Table I, and the drops of its Table II, at snapshot {k}, on the fixed test set (rapier; our values mean ± std "
             "over the episodes; the verdict needs our 95 % interval of the difference to exclude zero). In progress and "
             "one seed each: the final comparison, on both engines and with 500 trials for the drops, is `finish`'s:", ""
-            ] + long_runs_final.ORDERING_HEADER + long_runs_final.ordering_rows(ta, tb, ta["task"], ("Dense+FMSR+IS", "Dense"))
+            ] + long_runs_final.ORDERING_HEADER + long_runs_final.ordering_rows(ta, tb, ta["task"], labels) + [
+            long_runs_final.drops_row(ta, tb, ta["task"], labels, f"test, {ta['episodes']}")]
 
 
 HEADING = "The paper's budget: the egg, Dense+FMSR+IS against Dense, 400 epochs"
