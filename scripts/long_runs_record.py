@@ -336,8 +336,10 @@ def summary_bullet(runs, finals, link):
                  for r in runs]
         text += f"after {k + 1} epochs, test success " + " against ".join(cells)
         if len(runs) == 2:
-            a, b = (dict(r["snapshots"])[k]["test"]["interval"] for r in runs)
-            text += f"; difference {pts(difference(a, b))}"
+            tests = [dict(r["snapshots"])[k]["test"] for r in runs]
+            a, b = (t["interval"] for t in tests)
+            da, db = (wilson(t["drops"], t["episodes"]) for t in tests)
+            text += f"; difference {pts(difference(a, b))}, in drops {pts(difference(da, db))}"
         paper = long_runs_final.PAPER_TABLE1["egg"]
         rates = " against ".join(f"{paper[r['label']][0]} %" for r in runs if r["label"] in paper)
         text += (f". The paper: {rates}; "
