@@ -127,6 +127,48 @@ proptest! {
         prop_assert!((m.spectral_gap().unwrap() - (1.0 - slem)).abs() < 1e-15);
     }
 
+    // Guards each rule's weights, entry by entry, on random graphs: the
+    // checks above hold for any valid matrix, so a rule returning another
+    // rule's weights (max-degree built as Metropolis-Hastings, which agree on
+    // regular graphs, the only ones the known values use for max-degree) or
+    // a lazy matrix with the wrong alpha would pass them.
+    #[test]
+    fn rules_give_their_own_weights(
+        g in random_graph(2..=30),
+        alpha in 0.05..=1.0_f64,
+    ) {
+        let graph = g.graph();
+        let n = graph.nodes();
+        let degree = |i: usize| graph.degree(i).unwrap() as f64;
+        let d_max = (0..n).map(degree).fold(0.0, f64::max);
+        let mh = matrix(Rule::Mh, &graph);
+        let maxdeg = matrix(Rule::MaxDeg, &graph);
+        let lazy_mh = matrix(Rule::LazyMh(alpha), &graph);
+        let lazy_maxdeg = matrix(Rule::LazyMaxDeg(alpha), &graph);
+        for i in 0..n {
+            for j in 0..n {
+                let (want_mh, want_maxdeg) = if i == j {
+                    let rest: f64 = graph.neighbors(i).unwrap().iter().map(|&k| 1.0 / (1.0 + degree(i).max(degree(k)))).sum();
+                    (1.0 - rest, 1.0 - degree(i) / (1.0 + d_max))
+                } else if graph.has_edge(i, j) {
+                    (1.0 / (1.0 + degree(i).max(degree(j))), 1.0 / (1.0 + d_max))
+                } else {
+                    (0.0, 0.0)
+                };
+                let eye = if i == j { 1.0 } else { 0.0 };
+                for (what, m, want) in [
+                    ("MH", &mh, want_mh),
+                    ("max-degree", &maxdeg, want_maxdeg),
+                    ("lazy MH", &lazy_mh, (1.0 - alpha) * eye + alpha * want_mh),
+                    ("lazy max-degree", &lazy_maxdeg, (1.0 - alpha) * eye + alpha * want_maxdeg),
+                ] {
+                    let got = m.get(i, j).unwrap();
+                    prop_assert!((got - want).abs() < 1e-12, "{} ({}, {}) = {}, expected {}", what, i, j, got, want);
+                }
+            }
+        }
+    }
+
     #[test]
     fn mixing_preserves_average_and_contracts_by_slem_squared(
         (g, xs) in graph_and_vectors(),
