@@ -212,6 +212,57 @@ mod tests {
         assert_eq!(occ.estimate(), &[0.375]);
     }
 
+    /// Random episodes: `T` steps of `k` features in `[0, 1]`.
+    fn episodes() -> impl proptest::strategy::Strategy<Value = Vec<Vec<Vec<f32>>>> {
+        use proptest::prelude::*;
+        (1usize..4, 1usize..30).prop_flat_map(|(k, t)| {
+            prop::collection::vec(prop::collection::vec(prop::collection::vec(0.0f32..=1.0, k), t), 1..12)
+        })
+    }
+
+    proptest::proptest! {
+        // Guards eq. 1's range and the estimators' averaging on random
+        // episodes: every episode's occupancy lies in [0, 1 - gamma^T] and is
+        // the discounted sum written out; the window estimate is the mean of
+        // the last min(seen, W) episodes (the fixed cases above only look at
+        // a full window, so dividing by W before it fills went unseen); the
+        // EMA estimate starts at the first episode and then blends with beta.
+        #[test]
+        fn estimates_average_the_episode_occupancies(
+            eps in episodes(),
+            gamma in 0.0f64..0.999,
+            window in 1usize..6,
+            beta in 0.01f64..=1.0,
+        ) {
+            let k = eps[0][0].len();
+            let t = eps[0].len();
+            let mut win = DiscountedOccupancy::new(k, gamma, Averaging::Window { episodes: window }).unwrap();
+            let mut ema = DiscountedOccupancy::new(k, gamma, Averaging::Ema { beta }).unwrap();
+            let mut seen: Vec<Vec<f64>> = Vec::new();
+            let mut blended = vec![0.0; k];
+            for ep in &eps {
+                let lambda = episode_occupancy(ep, k, gamma).unwrap();
+                for (f, &l) in lambda.iter().enumerate() {
+                    let written: f64 = ep.iter().enumerate().map(|(s, phi)| gamma.powi(s as i32) * f64::from(phi[f])).sum();
+                    proptest::prop_assert!((l - (1.0 - gamma) * written).abs() < 1e-12, "feature {}: {} vs {}", f, l, (1.0 - gamma) * written);
+                    proptest::prop_assert!((0.0..=1.0 - gamma.powi(t as i32) + 1e-12).contains(&l), "{} outside [0, 1 - gamma^T]", l);
+                }
+                let b = if seen.is_empty() { 1.0 } else { beta };
+                blended.iter_mut().zip(&lambda).for_each(|(x, l)| *x = (1.0 - b) * *x + b * l);
+                seen.push(lambda);
+                win.observe_episode(ep).unwrap();
+                ema.observe_episode(ep).unwrap();
+                let recent = &seen[seen.len().saturating_sub(window)..];
+                for f in 0..k {
+                    let mean = recent.iter().map(|l| l[f]).sum::<f64>() / recent.len() as f64;
+                    proptest::prop_assert!((win.estimate()[f] - mean).abs() < 1e-12, "window: {} vs {}", win.estimate()[f], mean);
+                    proptest::prop_assert!((ema.estimate()[f] - blended[f]).abs() < 1e-12, "ema: {} vs {}", ema.estimate()[f], blended[f]);
+                }
+            }
+            proptest::prop_assert_eq!(win.episodes_seen(), eps.len() as u64);
+        }
+    }
+
     #[test]
     fn window_forgets_old_episodes() {
         let mut occ = DiscountedOccupancy::new(1, 0.5, Averaging::Window { episodes: 1 }).unwrap();

@@ -155,6 +155,41 @@ mod tests {
         }
     }
 
+    // Guards the config's mixing choice: each `rule` of `[sharing.mixing]`
+    // builds that rule's matrix, with its alpha, on a graph where the rules
+    // differ (nothing else called `MixingChoice::matrix`, so swapped arms or
+    // a dropped alpha went unseen); a user matrix is validated against the
+    // graph; mode and target are passed on, and a disabled config shares nothing.
+    #[test]
+    fn each_mixing_choice_builds_its_rules_matrix() {
+        use fmsr_graph::{Lazy, MaxDegree};
+        // Degrees 1, 3, 1, 2, 2, 1: the edge 4-5 has weight 1/3 under MH, 1/4 under max-degree.
+        let graph = Graph::from_edges(6, &[(0, 1), (1, 2), (1, 3), (3, 4), (4, 5)]).unwrap();
+        let mh = MetropolisHastings.mixing_matrix(&graph).unwrap();
+        let maxdeg = MaxDegree.mixing_matrix(&graph).unwrap();
+        assert_ne!(mh, maxdeg);
+        let lazy = |rule: &dyn MixingRule, alpha| Lazy::new(rule, alpha).unwrap().mixing_matrix(&graph).unwrap();
+        let cases = [
+            (MixingChoice::MetropolisHastings, mh.clone()),
+            (MixingChoice::MaxDegree, maxdeg.clone()),
+            (MixingChoice::LazyMetropolisHastings { alpha: 0.3 }, lazy(&MetropolisHastings, 0.3)),
+            (MixingChoice::LazyMaxDegree { alpha: 0.7 }, lazy(&MaxDegree, 0.7)),
+            (MixingChoice::Matrix { rows: maxdeg.to_rows() }, maxdeg.clone()),
+        ];
+        for (choice, want) in cases {
+            assert_eq!(choice.matrix(&graph).unwrap(), want, "{choice:?}");
+            let config =
+                SharingConfig { mode: ShareMode::Gradients, target: ShareTarget::Both, mixing: choice, enabled: true };
+            let built = config.build(&graph).unwrap().unwrap();
+            assert_eq!((built.mixing, built.mode, built.target), (want, ShareMode::Gradients, ShareTarget::Both));
+            assert_eq!(SharingConfig { enabled: false, ..config }.build(&graph).unwrap(), None);
+        }
+        // The complete graph's weights put weight on non-edges of this graph.
+        let complete = MaxDegree.mixing_matrix(&Graph::complete(6)).unwrap().to_rows();
+        assert!(MixingChoice::Matrix { rows: complete }.matrix(&graph).is_err());
+        assert!(MixingChoice::LazyMaxDegree { alpha: 0.0 }.matrix(&graph).is_err());
+    }
+
     // Guards the schedule: mode and target decide exactly which hook mixes.
     #[test]
     fn mode_and_target_pick_the_hooks() {
