@@ -342,3 +342,79 @@ pub fn read_eval(path: &Path) -> Result<Option<EvalReport>, ExperimentError> {
         .map(Some)
         .map_err(|e| ExperimentError::Parse { path: path.into(), message: e.to_string() })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fmsr_core::metrics::EpisodeOutcome;
+
+    /// 100 episodes: 32 successes, 60 incomplete, 8 drops; initial errors
+    /// 0.1, 0.39, 0.4 (the threshold itself), 1.0, 3.0, then 2.0 for the rest.
+    fn report(rule: SuccessRule) -> EvalReport {
+        let outcomes: Vec<EpisodeOutcome> = std::iter::repeat_n(EpisodeOutcome::Success, 32)
+            .chain(std::iter::repeat_n(EpisodeOutcome::Failure(FailureType::Incomplete), 60))
+            .chain(std::iter::repeat_n(EpisodeOutcome::Failure(FailureType::Drop), 8))
+            .collect();
+        let initial = [0.1, 0.39, 0.4, 1.0, 3.0];
+        let records: Vec<EpisodeRecord> = outcomes
+            .iter()
+            .enumerate()
+            .map(|(i, &outcome)| EpisodeRecord {
+                seed: i as u64,
+                initial_error: initial.get(i).copied().unwrap_or(2.0),
+                final_error: if outcome == EpisodeOutcome::Success { 0.1 } else { 1.0 },
+                dropped: outcome == EpisodeOutcome::Failure(FailureType::Drop),
+                drop_step: (outcome == EpisodeOutcome::Failure(FailureType::Drop)).then_some(7),
+                outcome,
+                total_contacts: 0,
+            })
+            .collect();
+        let counts: FailureCounts = outcomes.into_iter().collect();
+        EvalReport {
+            name: "r".into(),
+            method: "Dense".into(),
+            task: "egg".into(),
+            engine: "rapier".into(),
+            trained_on: Some("rapier".into()),
+            epochs: 1,
+            episodes: 100,
+            set: EpisodeSet::Test,
+            threshold: 0.4,
+            success_rule: rule,
+            success_rate: counts.success_rate().unwrap(),
+            stability: None,
+            outcomes: counts,
+            failures: counts.row(),
+            episode_summaries: Vec::new(),
+            records,
+            initial_distances: Vec::new(),
+            trace: EpisodeTrace::default(),
+            seconds: 0.0,
+        }
+    }
+
+    // Guards the cells the tables print from an evaluation: Table II's
+    // columns in their order (failures, incomplete and drops with their
+    // shares of the failures), the success cell's Wilson interval from the
+    // outcome counts and the `*` of the old success rule, the Drop% column
+    // of the cross-engine table, and the chance level counting the episodes
+    // that start strictly within the threshold, as `classify` counts a
+    // success. No test read these rows before; the CLI tests look for a
+    // configuration's name only.
+    #[test]
+    fn table_cells_show_the_counts_in_their_columns() {
+        let e = report(SuccessRule::ReachedAndHeld);
+        assert_eq!(e.table2_row(), "| egg | Dense | 100 | 68 | 60 | 88.2% | 8 | 11.8% |\n");
+        assert_eq!(e.success_cell(), "32% [24, 42]");
+        assert_eq!(report(SuccessRule::Reached).success_cell(), "32% [24, 42]*");
+        assert_eq!(e.table1_row(), "| egg | Dense | 32% [24, 42] | n/a | n/a | n/a | n/a | n/a | n/a |\n");
+        assert!(e.cross_engine_cells("mujoco").ends_with("| 32% [24, 42] | n/a | n/a | n/a | n/a | n/a | n/a | 11.8%"));
+        let still = e.still_success().unwrap();
+        assert_eq!(still, Interval::wilson(2, 100).unwrap());
+        assert_eq!(e.initial_errors().len(), 100);
+        assert!(e.against_chance().contains("test success 32% [24, 42] against 2% ["), "{}", e.against_chance());
+        // Files of older versions: the chance level from their list of initial distances.
+        let old = EvalReport { records: Vec::new(), initial_distances: vec![0.39, 0.4, 0.41, 0.0], ..e };
+        assert_eq!(old.still_success(), Interval::wilson(2, 4));
+    }
+}

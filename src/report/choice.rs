@@ -143,6 +143,33 @@ mod tests {
         assert!((e.success_rate - 0.3).abs() < 1e-12);
     }
 
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+
+        // Guards the selection rule on any number of seeds: with a validation
+        // evaluation for every seed, the chosen run is the first of the best
+        // validation scores, whatever the test scores. The two-seed case
+        // above also passes for a rule that takes the last run, or the last
+        // of equal scores; scores from a short list make ties common.
+        #[test]
+        fn the_first_best_on_validation_is_chosen(
+            runs in proptest::collection::vec((0usize..4, 0usize..4), 2..6),
+        ) {
+            let runs: Vec<RunRecord> = runs
+                .iter()
+                .enumerate()
+                .map(|(seed, &(test, validation))| record(seed as u64, test as f64 / 4.0, Some(validation as f64 / 4.0)))
+                .collect();
+            let scores: Vec<f64> = runs.iter().map(|r| r.validation.as_ref().unwrap().success_rate).collect();
+            let top = scores.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let first_best = scores.iter().position(|&s| s == top).unwrap();
+            let (r, e, how) = choose(&runs.iter().collect::<Vec<_>>()).unwrap();
+            proptest::prop_assert_eq!(how, Chosen::OnValidation);
+            proptest::prop_assert_eq!(r.config.trainer.seed, first_best as u64);
+            proptest::prop_assert!(std::ptr::eq(e, runs[first_best].eval.as_ref().unwrap()));
+        }
+    }
+
     #[test]
     fn without_validation_for_every_seed_the_first_run_stands() {
         let runs = [record(0, 0.2, None), record(1, 0.9, Some(0.9))];
