@@ -451,7 +451,7 @@ impl ExperimentConfig {
         }
         let config = ExperimentConfig::deserialize(toml::Value::Table(value)).map_err(|e| parse_err(e.to_string()))?;
         config.validate()?;
-        Ok(config.with_algorithm_section().with_sharing_section())
+        Ok(config.with_sections_written())
     }
 
     /// Reads and parses a TOML experiment file.
@@ -466,8 +466,7 @@ impl ExperimentConfig {
     /// [`ExperimentError::Encode`] if a value cannot be written as TOML.
     pub fn to_toml(&self) -> Result<String, ExperimentError> {
         let err = |e: toml::ser::Error| ExperimentError::Encode { what: "config.toml", reason: e.to_string() };
-        let mut table =
-            toml::Table::try_from(self.clone().with_algorithm_section().with_sharing_section()).map_err(err)?;
+        let mut table = toml::Table::try_from(self.clone().with_sections_written()).map_err(err)?;
         if let Some(toml::Value::Table(env)) = table.get_mut("env") {
             env.remove("reward");
         }
@@ -621,6 +620,12 @@ impl ExperimentConfig {
             self.sharing = Some(self.sharing_config());
         }
         self
+    }
+
+    /// Both optional sections written out: what a loaded config and a run's
+    /// `config.toml` hold.
+    fn with_sections_written(self) -> Self {
+        self.with_algorithm_section().with_sharing_section()
     }
 
     /// MADDPG's settings (defaults where the section is absent).
