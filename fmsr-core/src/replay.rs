@@ -545,8 +545,10 @@ mod tests {
             out[1] = task + phi[0];
         };
         let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let b = buffer.sample(2000, &HerConfig::default(), &layout, &mut rng, &reward, &agent_rewards).unwrap();
+        let b = buffer.sample(8000, &HerConfig::default(), &layout, &mut rng, &reward, &agent_rewards).unwrap();
         let mut relabelled = 0;
+        // counts[t][t']: samples at step t relabelled with the goal achieved at t'.
+        let mut counts = [[0usize; T + 1]; T];
         for i in 0..b.size {
             let (e, t) = (b.obs[2 * i] as usize, b.obs[2 * i + 1] as usize);
             assert_eq!(b.next_obs[2 * i + 1] as usize, t + 1);
@@ -555,6 +557,7 @@ mod tests {
                 // a future achieved goal 10 e + t' with t < t' <= T
                 let future = goal as usize - 10 * e;
                 assert!(future > t && future <= T, "sample ({e}, {t}) relabelled with t' = {future}");
+                counts[t][future] += 1;
                 relabelled += 1;
             } else {
                 assert_eq!(goal, -1.0 - e as f32);
@@ -573,7 +576,19 @@ mod tests {
             assert_eq!(&b.actor_inputs[1][4 * i..4 * i + 4], &[e as f32, t as f32, goal, prev_a]);
         }
         let frac = relabelled as f64 / b.size as f64;
-        assert!((frac - 0.8).abs() < 0.04, "relabelled fraction {frac}");
+        assert!((frac - 0.8).abs() < 0.02, "relabelled fraction {frac}");
+        // The "future" strategy draws t' uniformly from t+1..=T (HER baselines'
+        // `t + 1 + uniform(T - t)`): each count lies within 4.5 standard
+        // deviations of its binomial mean, so a draw that favoured the episode's
+        // end, or skipped t+1 or T, fails.
+        for (t, row) in counts.iter().enumerate() {
+            let n: usize = row.iter().sum();
+            let p = 1.0 / (T - t) as f64;
+            let (mean, sd) = (n as f64 * p, (n as f64 * p * (1.0 - p)).sqrt());
+            for (future, &c) in row.iter().enumerate().skip(t + 1) {
+                assert!((c as f64 - mean).abs() <= 4.5 * sd.max(1.0), "t = {t}: t' = {future} drawn {c} times of {n}");
+            }
+        }
     }
 
     // Guards the `global` actor view (issue 31's ablation): every actor's

@@ -190,25 +190,49 @@ mod tests {
         assert!(MixingChoice::LazyMaxDegree { alpha: 0.0 }.matrix(&graph).is_err());
     }
 
-    // Guards the schedule: mode and target decide exactly which hook mixes.
+    // Guards the schedule: mode and target decide exactly which hook mixes,
+    // for all six pairs, and the two hooks are told apart (a log of kinds
+    // alone let a gradient-mode config that mixed parameters pass).
     #[test]
     fn mode_and_target_pick_the_hooks() {
         let graph = Graph::ring(3);
         let mixing = MetropolisHastings.mixing_matrix(&graph).unwrap();
         let is = |mode, target| InformationSharing::new(Some(Sharing { mixing: mixing.clone(), mode, target }));
+        // (hook, kind) in the order an update calls them: critic step, then actor step.
         let run = |s: &InformationSharing| {
-            let mut log = Log::default();
-            for g in [NetworkKind::Critics, NetworkKind::Actors] {
-                s.mix_gradients(g, &mut log).unwrap();
-                s.mix_parameters(g, &mut log).unwrap();
+            let (mut grads, mut params) = (Log::default(), Log::default());
+            let mut calls = Vec::new();
+            for kind in [NetworkKind::Critics, NetworkKind::Actors] {
+                s.mix_gradients(kind, &mut grads).unwrap();
+                calls.extend(grads.0.drain(..).map(|k| (ShareMode::Gradients, k)));
+                s.mix_parameters(kind, &mut params).unwrap();
+                calls.extend(params.0.drain(..).map(|k| (ShareMode::Parameters, k)));
             }
-            log.0
+            calls
         };
-        assert_eq!(run(&is(ShareMode::Parameters, ShareTarget::Actors)), vec![NetworkKind::Actors]);
-        assert_eq!(run(&is(ShareMode::Gradients, ShareTarget::Critics)), vec![NetworkKind::Critics]);
-        assert_eq!(run(&is(ShareMode::Parameters, ShareTarget::Both)), vec![NetworkKind::Critics, NetworkKind::Actors]);
-        assert!(run(&InformationSharing::new(None)).is_empty());
-        assert!(is(ShareMode::Gradients, ShareTarget::Actors).mixes_gradients(NetworkKind::Actors));
-        assert!(!is(ShareMode::Gradients, ShareTarget::Actors).shares(NetworkKind::Critics));
+        let kinds = |target| match target {
+            ShareTarget::Actors => vec![NetworkKind::Actors],
+            ShareTarget::Critics => vec![NetworkKind::Critics],
+            ShareTarget::Both => vec![NetworkKind::Critics, NetworkKind::Actors],
+        };
+        for mode in [ShareMode::Parameters, ShareMode::Gradients] {
+            for target in [ShareTarget::Actors, ShareTarget::Critics, ShareTarget::Both] {
+                let s = is(mode, target);
+                let want: Vec<_> = kinds(target).into_iter().map(|k| (mode, k)).collect();
+                assert_eq!(run(&s), want, "{mode:?} {target:?}");
+                for kind in [NetworkKind::Critics, NetworkKind::Actors] {
+                    let mixed = kinds(target).contains(&kind);
+                    assert_eq!(s.shares(kind), mixed, "{mode:?} {target:?} {kind:?}");
+                    assert_eq!(
+                        s.mixes_gradients(kind),
+                        mixed && mode == ShareMode::Gradients,
+                        "{mode:?} {target:?} {kind:?}"
+                    );
+                }
+            }
+        }
+        let off = InformationSharing::new(None);
+        assert!(run(&off).is_empty());
+        assert!(!off.shares(NetworkKind::Actors) && !off.shares(NetworkKind::Critics));
     }
 }
