@@ -47,6 +47,34 @@ fn an_evaluation_records_each_episode_and_no_success_is_a_drop() {
     assert_eq!(eval.records[0].total_contacts, eval.trace.contacts.iter().sum::<usize>());
 }
 
+// Guards the drop count of Table II: with the drop distance below where the
+// object rests, every episode drops at its first step; the records, the counts
+// and the printed table must all say so (the test above meets a drop only as
+// its policy happens to play, and its checks hold with none).
+#[test]
+fn an_evaluation_counts_every_drop() {
+    let tmp = tempfile::tempdir().unwrap();
+    let base = common::tiny_config_text();
+    let from = "success_threshold = 0.1\n";
+    assert_eq!(base.matches(from).count(), 1, "the tiny config changed: update this test");
+    let config = tmp.path().join("drops.toml");
+    std::fs::write(&config, base.replace(from, "success_threshold = 0.1\ndrop_distance = 0.001\n")).unwrap();
+    let run = tmp.path().join("run");
+    let out = fmsr(&["train", "--config", config.to_str().unwrap(), "--out", run.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out));
+    let out = fmsr(&["eval", run.to_str().unwrap(), "--episodes", "4"]);
+    assert!(out.status.success(), "{}", text(&out));
+    let eval = read_eval(&run.join("eval.json"));
+    for r in &eval.records {
+        assert_eq!((r.dropped, r.drop_step), (true, Some(0)), "{r:?}");
+        assert_eq!(r.outcome, classify(r.final_error, eval.threshold, true), "{r:?}");
+    }
+    assert_eq!((eval.outcomes.episodes, eval.outcomes.successes, eval.outcomes.drop), (4, 0, 4));
+    let f = &eval.failures;
+    assert_eq!((f.failures, f.incomplete, f.drop, f.drop_percent), (4, 0, 4, Some(100.0)));
+    assert!(text(&out).contains(&eval.table2_row()), "{}", text(&out));
+}
+
 #[test]
 fn validation_episodes_never_meet_the_test_set() {
     let tmp = tempfile::tempdir().unwrap();
