@@ -649,6 +649,13 @@ impl ExperimentConfig {
     /// Builds the learner and the trainer on `env`, checking everything that
     /// needs the environment (agents, features, graph, mixing matrix).
     ///
+    /// The task reward is the environment's own: `method` sets it only in the
+    /// Shadow Hand config of [`ExperimentConfig::env_config`]. Environments
+    /// built otherwise must give the reward `method` names
+    /// ([`Method::reward`]), or the run's label names another method than
+    /// the one it trained; the generic [`Env`] does not say which it gives,
+    /// so this is not checked.
+    ///
     /// # Errors
     /// [`ExperimentError`] naming the key of the first setting that does not fit `env`.
     pub fn build_trainer<E: Env + Send>(&self, envs: Vec<E>) -> Result<Trainer<E, AnyLearner>, ExperimentError> {
