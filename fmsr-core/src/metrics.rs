@@ -98,7 +98,9 @@
 //!
 //! Unsuccessful episodes are classified as [`FailureType::Drop`] (the object left
 //! the hand) or [`FailureType::Incomplete`] (it stayed in the hand but did not
-//! reach the goal); the environment decides which (docs/design.md 3.9).
+//! reach the goal): the environment reports a drop at each step
+//! ([`crate::spec::StepInfo::dropped`]), and [`classify`] gives the outcome
+//! (docs/design.md 3.9).
 //! [`FailureCounts`] counts outcomes and gives Table II's columns
 //! ([`FailureRow`]).
 //!
@@ -735,14 +737,38 @@ impl fmt::Display for FailureType {
     }
 }
 
-/// The outcome of one test episode.
+/// The outcome of one test episode ([`classify`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EpisodeOutcome {
-    /// The goal was reached (within the success threshold) in time.
+    /// The object turned and held: the final goal distance under the
+    /// threshold, and never dropped.
     Success,
-    /// The goal was not reached.
+    /// Dropped at some step, or not turned into the goal.
     Failure(FailureType),
+}
+
+/// The outcome of a test episode (Table II): a drop if the object was dropped
+/// at any step, else success when the final goal distance is below
+/// `threshold`, else incomplete. An object turned into the goal but dropped
+/// on the way is a drop: success is an object turned and held.
+///
+/// ```
+/// use fmsr_core::metrics::{EpisodeOutcome, FailureType, classify};
+/// assert_eq!(classify(0.1, 0.4, false), EpisodeOutcome::Success);
+/// assert_eq!(classify(0.1, 0.4, true), EpisodeOutcome::Failure(FailureType::Drop));
+/// assert_eq!(classify(1.0, 0.4, true), EpisodeOutcome::Failure(FailureType::Drop));
+/// assert_eq!(classify(1.0, 0.4, false), EpisodeOutcome::Failure(FailureType::Incomplete));
+/// ```
+#[must_use]
+pub fn classify(final_distance: f32, threshold: f32, dropped: bool) -> EpisodeOutcome {
+    if dropped {
+        EpisodeOutcome::Failure(FailureType::Drop)
+    } else if final_distance < threshold {
+        EpisodeOutcome::Success
+    } else {
+        EpisodeOutcome::Failure(FailureType::Incomplete)
+    }
 }
 
 /// Counts of episode outcomes, for the success rate and Table II.

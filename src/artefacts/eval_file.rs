@@ -1,5 +1,5 @@
 //! An evaluation's file (`eval.json`, [`EvalReport`]): the outcome of every
-//! test episode ([`classify`]: success is turned and held), the paper's
+//! test episode ([`classify`](fmsr_core::metrics::classify): success is turned and held), the paper's
 //! measures and their rows of Tables I and II. `fmsr eval` writes it
 //! ([`crate::evaluate`]), reports and policy files read it.
 
@@ -9,9 +9,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use fmsr_core::interval::Interval;
-use fmsr_core::metrics::{
-    EpisodeOutcome, EpisodeSummary, FailureCounts, FailureRow, FailureType, MeanStd, StabilityRow,
-};
+use fmsr_core::metrics::{EpisodeOutcome, EpisodeSummary, FailureCounts, FailureRow, MeanStd, StabilityRow};
 
 use crate::experiment::{EpisodeSet, ExperimentError};
 
@@ -76,7 +74,7 @@ pub struct EpisodeRecord {
     pub dropped: bool,
     /// The first step (from 0) at which it was dropped.
     pub drop_step: Option<usize>,
-    /// Success, drop or incomplete ([`classify`]).
+    /// Success, drop or incomplete ([`classify`](fmsr_core::metrics::classify)).
     pub outcome: EpisodeOutcome,
     /// Active touch sensors summed over the steps (Table I's "Total Contact").
     pub total_contacts: usize,
@@ -298,30 +296,6 @@ impl EvalReport {
     }
 }
 
-/// The outcome of a test episode (Table II): a drop if the object was dropped
-/// at any step, else success when the final goal distance is below
-/// `threshold`, else incomplete. An object turned into the goal but dropped
-/// on the way is a drop: success is an object turned and held.
-///
-/// ```
-/// use fmsr::core::metrics::{EpisodeOutcome, FailureType};
-/// use fmsr::artefacts::classify;
-/// assert_eq!(classify(0.1, 0.4, false), EpisodeOutcome::Success);
-/// assert_eq!(classify(0.1, 0.4, true), EpisodeOutcome::Failure(FailureType::Drop));
-/// assert_eq!(classify(1.0, 0.4, true), EpisodeOutcome::Failure(FailureType::Drop));
-/// assert_eq!(classify(1.0, 0.4, false), EpisodeOutcome::Failure(FailureType::Incomplete));
-/// ```
-#[must_use]
-pub fn classify(final_distance: f32, threshold: f32, dropped: bool) -> EpisodeOutcome {
-    if dropped {
-        EpisodeOutcome::Failure(FailureType::Drop)
-    } else if final_distance < threshold {
-        EpisodeOutcome::Success
-    } else {
-        EpisodeOutcome::Failure(FailureType::Incomplete)
-    }
-}
-
 /// Writes an evaluation as JSON, atomically.
 ///
 /// # Errors
@@ -346,7 +320,7 @@ pub fn read_eval(path: &Path) -> Result<Option<EvalReport>, ExperimentError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fmsr_core::metrics::EpisodeOutcome;
+    use fmsr_core::metrics::{EpisodeOutcome, FailureType};
 
     /// 100 episodes: 32 successes, 60 incomplete, 8 drops; initial errors
     /// 0.1, 0.39, 0.4 (the threshold itself), 1.0, 3.0, then 2.0 for the rest.

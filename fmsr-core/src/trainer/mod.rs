@@ -6,8 +6,9 @@
 //! features update the occupancy estimate `lambda` (eq. 1); then the algorithm's
 //! updates of the cycle (`Trainer::update`), with every agent's reward `r_i`
 //! (eq. 7) computed from the current `lambda` by the [`ShadowRewards`], and the
-//! information sharing the algorithm applies between its critic and actor steps
-//! ([`crate::sharing`]). At the end of an epoch the policy is evaluated on fresh
+//! information sharing the algorithm applies at its critic and actor steps
+//! ([`crate::sharing`]: after each step in parameter mode, to its gradients in
+//! gradient mode). At the end of an epoch the policy is evaluated on fresh
 //! seeded episodes ([`Trainer::evaluate`]); the caller of [`Trainer::train`]
 //! writes the checkpoint ([`Trainer::save_checkpoint`]), which keeps the stored
 //! episodes in an append-only [replay log](crate::replay_log).
@@ -265,7 +266,11 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
 
     /// Evaluates the policy ([`ActMode::Evaluate`]) on one episode per seed.
     /// Success is a final goal distance below `threshold`, or with `None` the
-    /// environment's own success flag at the last step (its training threshold).
+    /// environment's own success flag at the last step (its training threshold):
+    /// drops are not looked at, as HER's logging counts success (the rate of
+    /// `metrics.csv`). Dropped episodes are counted apart
+    /// ([`EvalSummary::drop_rate`]); the test's rule, where a drop is a failure, is
+    /// [`crate::metrics::classify`].
     ///
     /// # Errors
     /// Errors of the environment or the policy.
