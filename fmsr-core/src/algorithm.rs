@@ -15,7 +15,8 @@ use serde::{Deserialize, Serialize};
 use crate::policy::Policy;
 use crate::replay::Episode;
 
-/// Each agent's reward for a transition, as the collector defines it:
+/// Each agent's reward for a transition, as the shadow rewards define it
+/// ([`crate::shadow`]):
 /// `r_i = w_i * r_task(g_achieved, g) + alpha * sum_{k in S_i} z_k(phi_k, lambda_k)` (eq. 7).
 ///
 /// Off-policy algorithms call it while sampling, so relabelled goals (HER) and

@@ -34,7 +34,9 @@
 //!
 //! **Information sharing** (eq. 8): after each actor update, the agents' shared-shape
 //! parameters are mixed over a graph, `theta_i <- sum_j M_ij theta_j`, with a symmetric
-//! doubly stochastic mixing matrix `M` (crate `fmsr-graph`).
+//! doubly stochastic mixing matrix `M` (crate `fmsr-graph`). Algorithm 1 mixes
+//! between the critic and the actor updates instead; docs/design.md 3.7 says why
+//! the two orders differ only at the ends of a run of updates.
 //!
 //! ## Example
 //!

@@ -1,4 +1,4 @@
-//! MADDPG with HER-baselines losses (paper section III, eqs. 5-7, 9).
+//! MADDPG with HER-baselines losses (paper section III, eqs. 5, 7, 9).
 //!
 //! Per agent `i`, on one shared HER batch (experience synchronisation):
 //!

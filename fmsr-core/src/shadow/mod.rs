@@ -8,8 +8,9 @@
 //! - [`ShadowMode::Gradient`] (default): the general-utility policy gradient. By
 //!   the chain rule `grad F(lambda) = sum_{s,a} dF/dlambda * grad lambda(s, a)`, so
 //!   the per-step reward is `z_k(s, a) = F'(lambda_k) * phi_k(s, a) = phi_k(s, a) / (lambda_k + 0.1)`.
-//! - [`ShadowMode::Value`]: adds `F_k(lambda_k)` itself at every step, as eq. (2)
-//!   literally says; kept for ablation.
+//! - [`ShadowMode::Value`]: adds `F_k(lambda_k)` itself at every step, eq. (2)'s
+//!   term read as a per-step reward (with this module's sign, not eqs. 11-12's);
+//!   kept for ablation.
 //!
 //! Agent `i` learns from `r_i = w_task * r_task + alpha * sum_{k in S_i} z_k` in its
 //! critic target (eq. 7), where `S_i` is its finger-specific set of features

@@ -26,7 +26,7 @@ pub enum ShadowMode {
     /// `z = phi * F'(lambda)`: the policy gradient of the utility (default).
     #[default]
     Gradient,
-    /// `z = F(lambda)` at every step, as eq. (2) literally says.
+    /// `z = F(lambda)` at every step: eq. (2)'s term read as a per-step reward.
     Value,
 }
 
