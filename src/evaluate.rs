@@ -87,6 +87,7 @@ fn play<E: Env + ContactReadout + Send>(
     let final_error = distances.last().copied().unwrap_or(f32::INFINITY);
     let drop_step = episode.infos.iter().position(|i| i.dropped);
     let contacts = trace.contacts();
+    let summary = trace.summary();
     let record = EpisodeRecord {
         seed,
         initial_error,
@@ -94,7 +95,7 @@ fn play<E: Env + ContactReadout + Send>(
         dropped: drop_step.is_some(),
         drop_step,
         outcome: classify(final_error, threshold, drop_step.is_some()),
-        total_contacts: contacts.iter().sum(),
+        total_contacts: summary.as_ref().map_or(0, |s| s.total_contacts),
     };
     let series = EpisodeTrace {
         seed,
@@ -106,7 +107,7 @@ fn play<E: Env + ContactReadout + Send>(
         q_dcc: trace.q_dcc(),
         goal_distance: distances,
     };
-    Ok(Played { record, summary: trace.summary(), trace: series })
+    Ok(Played { record, summary, trace: series })
 }
 
 /// Evaluates the policy of `source` (a run's last checkpoint or a policy

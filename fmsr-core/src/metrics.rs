@@ -313,7 +313,12 @@ pub fn grasp_singular_values(g: &Mat<f64>) -> Result<[f64; WRENCH_DIM], CoreErro
 /// assert_eq!(q_msv(&grasp_matrix(&contacts)).unwrap(), 0.0);
 /// ```
 pub fn q_msv(g: &Mat<f64>) -> Result<f64, CoreError> {
-    Ok(grasp_singular_values(g)?[WRENCH_DIM - 1])
+    Ok(msv_of(&grasp_singular_values(g)?))
+}
+
+/// Eq. 16 on the singular values (descending): the smallest.
+fn msv_of(singular_values: &[f64; WRENCH_DIM]) -> f64 {
+    singular_values[WRENCH_DIM - 1]
 }
 
 /// `Q_VEW = sqrt(det(G G^T)) = sigma_1 sigma_2 ... sigma_6` (eq. 17): the volume
@@ -327,7 +332,12 @@ pub fn q_msv(g: &Mat<f64>) -> Result<f64, CoreError> {
 /// assert!((q_vew(&g).unwrap() - 64.0).abs() < 1e-9);
 /// ```
 pub fn q_vew(g: &Mat<f64>) -> Result<f64, CoreError> {
-    Ok(grasp_singular_values(g)?.iter().product())
+    Ok(vew_of(&grasp_singular_values(g)?))
+}
+
+/// Eq. 17 on the singular values: their product.
+fn vew_of(singular_values: &[f64; WRENCH_DIM]) -> f64 {
+    singular_values.iter().product()
 }
 
 /// `Q_DCC = (1/n) sum_i |p_i - c|` (eq. 18): the mean distance (m) from the contact
@@ -404,8 +414,8 @@ impl GraspQuality {
             active_touch_sensors: contacts.active_touch_sensors,
             contact_points: contacts.points.len(),
             singular_values,
-            q_msv: singular_values[WRENCH_DIM - 1],
-            q_vew: singular_values.iter().product(),
+            q_msv: msv_of(&singular_values),
+            q_vew: vew_of(&singular_values),
             q_dcc: q_dcc(contacts),
         })
     }
