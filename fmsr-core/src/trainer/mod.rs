@@ -267,8 +267,8 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
     /// Evaluates the policy ([`ActMode::Evaluate`]) on one episode per seed.
     /// Success is a final goal distance below `threshold`, or with `None` the
     /// environment's own success flag at the last step (its training threshold):
-    /// drops are not looked at, as HER's logging counts success (the rate of
-    /// `metrics.csv`). Dropped episodes are counted apart
+    /// drops are not looked at, as HER's logging counts success (with `None`,
+    /// the eval success of `metrics.csv`). Dropped episodes are counted apart
     /// ([`EvalSummary::drop_rate`]); the test's rule, where a drop is a failure, is
     /// [`crate::metrics::classify`].
     ///
