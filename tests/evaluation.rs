@@ -12,7 +12,7 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::cli::{FMSR, fmsr, text, tiny_config, trained_tiny_run};
+use common::cli::{FMSR, fmsr, text, tiny_config, trained_run, trained_tiny_run};
 use fmsr::artefacts::{EvalReport, SuccessRule, classify};
 use fmsr::experiment::EpisodeSet;
 
@@ -59,9 +59,7 @@ fn an_evaluation_counts_every_drop() {
     assert_eq!(base.matches(from).count(), 1, "the tiny config changed: update this test");
     let config = tmp.path().join("drops.toml");
     std::fs::write(&config, base.replace(from, "success_threshold = 0.1\ndrop_distance = 0.001\n")).unwrap();
-    let run = tmp.path().join("run");
-    let out = fmsr(&["train", "--config", config.to_str().unwrap(), "--out", run.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", text(&out));
+    let run = trained_run(tmp.path(), &config);
     let out = fmsr(&["eval", run.to_str().unwrap(), "--episodes", "4"]);
     assert!(out.status.success(), "{}", text(&out));
     let eval = read_eval(&run.join("eval.json"));

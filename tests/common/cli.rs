@@ -15,7 +15,11 @@ pub fn tiny_config(dir: &Path, extra: &str) -> PathBuf {
 
 /// A run of the tiny config trained for one epoch in `dir/run`.
 pub fn trained_tiny_run(dir: &Path) -> PathBuf {
-    let config = tiny_config(dir, "");
+    trained_run(dir, &tiny_config(dir, ""))
+}
+
+/// A run of `config` trained in `dir/run`.
+pub fn trained_run(dir: &Path, config: &Path) -> PathBuf {
     let run = dir.join("run");
     let out = fmsr(&["train", "--config", config.to_str().unwrap(), "--out", run.to_str().unwrap()]);
     assert!(out.status.success(), "{}", text(&out));
