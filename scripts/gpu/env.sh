@@ -48,4 +48,11 @@ if [ -z "${XDG_RUNTIME_DIR:-}" ]; then
   XDG_RUNTIME_DIR=$(mktemp -d)
   export XDG_RUNTIME_DIR
 fi
+# cubecl's autotune results of an earlier lease (pack.sh packs them), where
+# this machine has none yet: cubecl reads them from target/environment, the
+# repository's, as the scripts here run from its root.
+if [ -f "$pack/cubecl_cache.tar.gz" ] && [ ! -d target/environment ]; then
+  mkdir -p target
+  tar xzf "$pack/cubecl_cache.tar.gz" -C target
+fi
 export FMSR=$pack/bin/fmsr

@@ -39,7 +39,10 @@
 #
 # Every step has its own time limit and a failing step does not stop the
 # next: what comes back says which failed. OUT_DIR gets lease.log (all of the
-# above), runs.tar.gz and one policy file per run.
+# above), runs.tar.gz, one policy file per run, and cubecl_cache.tar.gz:
+# cubecl's persistent autotune results (target/environment), which the next
+# pack carries when copied to ~/.cache/fmsr/ (scripts/gpu/pack.sh), so that
+# the next lease's first use of each shape skips the candidates' trials.
 set -uo pipefail
 cd "$(dirname "$0")/../.." || exit
 if [ $# -lt 1 ]; then
@@ -53,6 +56,11 @@ left() { echo $((budget - ($(date +%s) - start))); }
 mkdir -p "$out"
 exec > >(tee -a "$out/lease.log") 2>&1
 step() { echo; echo "== [$(($(date +%s) - start)) s] $*"; }
+# On every exit: cubecl's autotune results of this machine, for the next pack.
+save_cubecl_cache() {
+  [ -d target/environment ] && tar czf "$out/cubecl_cache.tar.gz" -C target environment
+}
+trap save_cubecl_cache EXIT
 
 step machine
 # shellcheck source=scripts/gpu/env.sh
@@ -112,12 +120,17 @@ if [ "${FMSR_LEASE_CYCLE:-1}" != 0 ]; then
   one_cycle > "$out/cycle.toml"
   rm -rf "$cycle"
   # FMSR_LEASE_CUBECL_LOG=1: cubecl's log of these epochs (compilation, tuning,
-  # profiling) comes back as cubecl.log.xz, to see where a first use goes.
+  # profiling) comes back as cubecl.log.xz, to see where a first use goes, with
+  # its summary by scripts/gpu/cubecl_first_use.py.
   log=()
   [ "${FMSR_LEASE_CUBECL_LOG:-0}" = 1 ] && log=(env "CUBECL_DEBUG_LOG=$out/cubecl.log")
   timeout "${FMSR_LEASE_CYCLE_SECONDS:-150}" "${log[@]}" "$FMSR" train --config "$out/cycle.toml" --device "$device" \
     --epochs 2 --out "$cycle" --quiet || echo "one-cycle epochs failed (exit $?)"
-  [ -f "$out/cubecl.log" ] && xz -T0 "$out/cubecl.log"
+  if [ -f "$out/cubecl.log" ]; then
+    # Per kernel family: compiled, launches, their time, the slow (first) launches.
+    python3 scripts/gpu/cubecl_first_use.py "$out/cubecl.log" | tee "$out/cubecl_first_use.txt"
+    xz -T0 "$out/cubecl.log"
+  fi
   cut -d, -f1,5-9 "$cycle/metrics.csv" 2>/dev/null
   rm -f "$out/cycle.toml"
 fi

@@ -15,6 +15,10 @@
 #   scripts/gpu/pack.sh --bench ddpg_update        # and this bench's binary (--test NAME: a test's)
 #   scripts/gpu/pack.sh --no-assets      # no model: a second pack for a machine that has one
 #                                        # (FMSR_ASSETS_DIR=$PWD/.gpu/assets there)
+#
+# cubecl's autotune results from an earlier lease (scripts/gpu/lease.sh brings
+# back cubecl_cache.tar.gz) travel too where FMSR_CUBECL_CACHE names them
+# (default ~/.cache/fmsr/cubecl_cache.tar.gz, when it exists).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 features=vulkan
@@ -81,6 +85,10 @@ if [ "$assets" = 1 ]; then
   cp -r "${model%/assets}" "$out/assets/"
 else
   rmdir "$out/assets"
+fi
+cache=${FMSR_CUBECL_CACHE:-$HOME/.cache/fmsr/cubecl_cache.tar.gz}
+if [ -f "$cache" ]; then
+  cp "$cache" "$out/cubecl_cache.tar.gz"
 fi
 if [ "$mujoco" = 1 ]; then
   mkdir -p "$out/lib"
