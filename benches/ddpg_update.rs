@@ -173,7 +173,7 @@ fn joint_update(c: &mut Criterion) {
         group.throughput(Throughput::Elements(1));
         for threads in [1, 2] {
             let mut l = learner(threads);
-            warm_up(|| drop(l.learn_batch(&b, &BOUNDS).expect("learn")));
+            warm_up(&format!("batch {n}, {threads} thread(s)"), || drop(l.learn_batch(&b, &BOUNDS).expect("learn")));
             group.bench_function(format!("threads_{threads}"), |bench| {
                 bench.iter(|| black_box(l.learn_batch(black_box(&b), &BOUNDS).expect("learn")));
             });
@@ -183,20 +183,37 @@ fn joint_update(c: &mut Criterion) {
 
     let mut l = learner(2);
     let inputs: Vec<Vec<f32>> = (0..6).map(|i| values(layout.actor_input_dim(i), 40 + i)).collect();
-    warm_up(|| drop(l.act(&inputs, 1, ActMode::Evaluate).expect("act")));
+    warm_up("action selection", || drop(l.act(&inputs, 1, ActMode::Evaluate).expect("act")));
     c.bench_function("ddpg_act_6_agents_one_observation", |bench| {
         bench.iter(|| black_box(l.act(black_box(&inputs), 1, ActMode::Evaluate).expect("act")));
     });
 }
 
-/// Three untimed calls before criterion's own warm-up: on a GPU the first use
-/// of each shape compiles and tunes kernels, which took minutes at batch 1024
-/// on an H200 (2026-11-26) and fell into criterion's samples (a median of
-/// 916 ms over a range of 24 ms to 2.7 s).
-fn warm_up(mut f: impl FnMut()) {
-    for _ in 0..3 {
+/// Untimed calls before criterion's own warm-up, until the shape is warm: at
+/// least three, then on until a call is within 1.5x the fastest so far (for at
+/// most five minutes), and prints how many it took. On a GPU the first use of
+/// each shape compiles and tunes kernels, which took minutes at batch 1024 on
+/// an H200 and fell into criterion's samples (2026-11-26: a median of 916 ms
+/// over a range of 24 ms to 2.7 s); three calls were not enough there
+/// (2026-11-27: the bench's 200 s ran out at batch 1024), so the tuning goes
+/// on past the first call. On the CPU three calls are.
+fn warm_up(what: &str, mut f: impl FnMut()) {
+    const LIMIT_S: f64 = 300.0;
+    let start = Instant::now();
+    let (mut calls, mut best, mut last) = (0usize, f64::INFINITY, f64::INFINITY);
+    while calls < 3 || (last > 1.5 * best && start.elapsed().as_secs_f64() < LIMIT_S) {
+        let t = Instant::now();
         f();
+        last = t.elapsed().as_secs_f64();
+        best = best.min(last);
+        calls += 1;
     }
+    println!(
+        "warm-up {what}: {calls} untimed calls in {:.1} s (the last {:.2} ms, the fastest {:.2} ms)",
+        start.elapsed().as_secs_f64(),
+        last * 1e3,
+        best * 1e3
+    );
 }
 
 /// Our updates/s over `iters` joint updates after a warm-up.
