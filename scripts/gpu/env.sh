@@ -39,6 +39,11 @@ fi
 if [ -d "$pack/lib" ]; then
   export LD_LIBRARY_PATH=$PWD/$pack/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
 fi
+# libnvrtc for the `cuda-nvrtc` build, which opens it at run time: the
+# machine's CUDA toolkit (2026-11-27, an H200 lease: /usr/local/cuda/lib64).
+if [ -d /usr/local/cuda/lib64 ]; then
+  export LD_LIBRARY_PATH=${LD_LIBRARY_PATH:+$LD_LIBRARY_PATH:}/usr/local/cuda/lib64
+fi
 # The model: this pack's, else the one another pack brought to this machine
 # in an earlier call (pack.sh --no-assets; FMSR_ASSETS_DIR names it).
 if [ -d "$pack/assets" ]; then
