@@ -198,9 +198,10 @@ fn joint_update(c: &mut Criterion) {
 /// most five minutes), and prints how many it took. On a GPU the first use of
 /// each shape compiles and tunes kernels, which took minutes at batch 1024 on
 /// an H200 and fell into criterion's samples (2026-11-26: a median of 916 ms
-/// over a range of 24 ms to 2.7 s); three calls were not enough there
-/// (2026-11-27: the bench's 200 s ran out at batch 1024), so the tuning goes
-/// on past the first call. On the CPU three calls are.
+/// over a range of 24 ms to 2.7 s), and three calls were not enough there
+/// (2026-11-27: the bench's 200 s ran out at batch 1024). Whether the tuning
+/// goes on past the first call or the first call alone took that long was not
+/// seen: the printed line says. On the CPU three calls are enough.
 fn warm_up(what: &str, mut f: impl FnMut()) {
     const LIMIT_S: f64 = 300.0;
     let start = Instant::now();
