@@ -170,7 +170,8 @@ cut -d, -f1-9 "$first" 2>/dev/null || tail -n 5 "runs/gpu/${runs[0]}.log"
 step "${runs[1]} beside it, both until $((budget - tail_s)) s"
 FMSR_GPU_DEVICE=$device scripts/gpu/start.sh "configs/${runs[1]}.toml" || echo "start ${runs[1]} failed"
 while [ "$(left)" -gt "$tail_s" ]; do
-  sleep $(( $(left) - tail_s < 30 ? ($(left) - tail_s > 0 ? $(left) - tail_s : 1) : 30 ))
+  until_tail=$(($(left) - tail_s))
+  sleep $((until_tail > 30 ? 30 : (until_tail > 0 ? until_tail : 1)))
   scripts/gpu/status.sh "${runs[@]}" | grep '^=='
 done
 step "status"

@@ -17,8 +17,9 @@
 #                                        # (FMSR_ASSETS_DIR=$PWD/.gpu/assets there)
 #
 # cubecl's autotune results from an earlier lease (scripts/gpu/lease.sh brings
-# back cubecl_cache.tar.gz) travel too where FMSR_CUBECL_CACHE names them
-# (default ~/.cache/fmsr/cubecl_cache.tar.gz, when it exists).
+# back cubecl_cache.tar.gz) travel too, beside the model, where
+# FMSR_CUBECL_CACHE names them (default ~/.cache/fmsr/cubecl_cache.tar.gz,
+# when it exists).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 features=vulkan
@@ -86,8 +87,10 @@ if [ "$assets" = 1 ]; then
 else
   rmdir "$out/assets"
 fi
+# With the model, in the pack a machine gets first (a --no-assets pack follows
+# one that brought both).
 cache=${FMSR_CUBECL_CACHE:-$HOME/.cache/fmsr/cubecl_cache.tar.gz}
-if [ -f "$cache" ]; then
+if [ "$assets" = 1 ] && [ -f "$cache" ]; then
   cp "$cache" "$out/cubecl_cache.tar.gz"
 fi
 if [ "$mujoco" = 1 ]; then
