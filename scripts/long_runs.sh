@@ -7,6 +7,7 @@
 #   scripts/long_runs.sh status            epochs, env steps, success, s/epoch, sessions left, alive, next snapshot
 #   scripts/long_runs.sh record            evaluate new snapshots, copy small files into docs/
 #   scripts/long_runs.sh finish            once every run has ended: issue 37's item 4 (below)
+#   scripts/long_runs.sh lost              the home is gone: mark the recorded runs lost, rewrite the section
 #
 # The home is `$FMSR_LONG_RUNS`, else `$HOME/.local/share/fmsr/long-runs`:
 #
@@ -54,6 +55,15 @@
 # so a cut-off `finish` is run again. Overrides (for a trial on a scratch
 # home): FMSR_LONG_RUNS_RECORDS, FMSR_LONG_RUNS_PRETRAINED,
 # FMSR_LONG_RUNS_RESULTS, FMSR_LONG_RUNS_TRIALS.
+#
+# `lost` is for a session that finds the home gone (a machine not kept from
+# the session before: every checkpoint, replay buffer, snapshot policy and the
+# binary with it). It refuses for any run the home still holds; for the others
+# it writes docs/results/paper_budget/<run>/lost.env (FOUND: when the loss was
+# found) and rewrites the section from the records alone, saying the runs were
+# lost and at which epoch their record stops. A later `start` of the same runs
+# moves those records to paper_budget_lost/ as for any earlier run; a `record`
+# that finds the run in the home after all removes the mark.
 set -euo pipefail
 
 repo=$(cd "$(dirname "$0")/.." && pwd)
@@ -216,8 +226,24 @@ EOF
 
 runs() { for d in "$home"/*/; do [ -f "$d/keeper.env" ] && echo "${d%/}"; done; }
 
+# Runs recorded in docs/ but neither in the home nor marked lost.
+unaccounted() {
+  local out
+  for out in "$records"/*/; do
+    [ -f "$out/keeper.env" ] || continue
+    out=${out%/}
+    [ -f "$home/$(basename "$out")/keeper.env" ] || [ -f "$out/lost.env" ] || basename "$out"
+  done
+}
+
 resume() {
-  [ -d "$home" ] || { echo "no long-run home at $home (nothing to resume)"; return; }
+  if [ ! -d "$home" ]; then
+    echo "no long-run home at $home (nothing to resume)"
+    local missing
+    missing=$(unaccounted | tr '\n' ' ')
+    [ -z "$missing" ] || echo "recorded in $records but not in the home: ${missing% }; if the home was lost, \`$0 lost\` says so in the records"
+    return
+  fi
   local dir any=0
   for dir in $(runs); do any=1; launch "$dir"; done
   [ "$any" = 1 ] || echo "no runs in $home"
@@ -287,6 +313,8 @@ evaluate_snapshots() {
       [ -f "$dir/run/$f" ] && cp "$dir/run/$f" "$out/$f"
     done
     cp "$dir/keeper.env" "$out/keeper.env"
+    # The home holds the run: whatever an earlier `lost` said, it is not lost.
+    rm -f "$out/lost.env"
     for snap in "$dir"/snapshots/epoch-*.fmsr; do
       [ -f "$snap" ] || continue
       k=$(basename "$snap" .fmsr)
@@ -400,12 +428,39 @@ finish() {
   write_section
 }
 
+# Marks every recorded run the home does not hold as lost (lost.env in its
+# records), then rewrites the section from the records.
+lost() {
+  cd "$repo"
+  local out name any=0 now
+  now=$(date -u +%FT%TZ)
+  for out in "$records"/*/; do
+    [ -f "$out/keeper.env" ] || continue
+    out=${out%/}
+    name=$(basename "$out")
+    if [ -f "$home/$name/keeper.env" ]; then
+      cmp -s "$home/$name/keeper.env" "$out/keeper.env" && die "the home holds $name ($home/$name): it is not lost"
+      die "the home holds a later run $name than the one recorded: \`$0 record\` moves the earlier record aside"
+    fi
+    any=1
+    if [ -f "$out/lost.env" ]; then
+      echo "$name: marked lost before ($(cat "$out/lost.env"))"
+    else
+      printf 'FOUND=%s\nHOME=%s\n' "$now" "$home" > "$out/lost.env.tmp" && mv "$out/lost.env.tmp" "$out/lost.env"
+      echo "$name: lost, its record stops at $(($(wc -l < "$out/metrics.csv") - 1)) epochs"
+    fi
+  done
+  [ "$any" = 1 ] || die "no recorded run in $records"
+  write_section
+}
+
 case "${1:-}" in
   start) shift; start "$@"; exit ;;
   resume) resume; exit ;;
   status) status; exit ;;
   record) record; exit ;;
   finish) finish; exit ;;
+  lost) lost; exit ;;
   _drive) drive "$2"; exit ;;
-  *) die "usage: $0 start CONFIG... | resume | status | record | finish" ;;
+  *) die "usage: $0 start CONFIG... | resume | status | record | finish | lost" ;;
 esac

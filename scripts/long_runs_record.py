@@ -4,8 +4,9 @@
 Called by `scripts/long_runs.sh record` after it has copied each run's small
 files into docs/results/paper_budget/<run>/ and evaluated its new snapshots.
 It reads only those copies and the keeper's home (for whether a driver is
-alive), and replaces what lies between the section's two markers in
-docs/results.md (or appends the section). It also draws the learning curves
+alive; a run marked lost by `scripts/long_runs.sh lost` has a lost.env beside
+its copies, and no home), and replaces what lies between the section's two
+markers in docs/results.md (or appends the section). It also draws the learning curves
 side by side as an SVG, docs/results/paper_budget/curves.svg.
 
 Success intervals are 95 % Wilson intervals, and differences Newcombe's hybrid
@@ -164,6 +165,8 @@ def load_run(records, home, name):
         "metrics": metrics,
         "snapshots": snaps,
         "alive": alive(home, name),
+        # When the keeper found the home gone (`long_runs.sh lost`), else None.
+        "lost": keeper_env(d / "lost.env").get("FOUND") if (d / "lost.env").exists() else None,
     }
 
 
@@ -179,7 +182,8 @@ def load_lost(lost_dir):
         for p in sorted((d / "snapshots").glob("epoch-*.test.json")):
             k = int(p.name.split(".")[0].split("-")[1])
             snaps.append((k, read_eval(p)))
-        out.append({"dir": d.name, "env": env, "metrics": metrics, "snapshots": snaps})
+        found = keeper_env(d / "lost.env").get("FOUND")
+        out.append({"dir": d.name, "env": env, "metrics": metrics, "snapshots": snaps, "found": found})
     return out
 
 
@@ -195,7 +199,8 @@ def lost_runs(lost, records_rel):
         last = m[-1] if m else None
         snaps = ", ".join(f"epoch {k}: {pct(t['interval']) if t else 'n/a'}" for k, t in r["snapshots"])
         lines.append(
-            f"- [`{r['dir']}`]({rel}/{r['dir']}/): started {r['env'].get('STARTED', '?')}, "
+            f"- [`{r['dir']}`]({rel}/{r['dir']}/): started {r['env'].get('STARTED', '?')}"
+            + (f", found lost {r['found']}" if r["found"] else "") + ", "
             f"{len(m)} epochs recorded ({last['env_steps'] if last else 0} env steps"
             + (f", train {float(last['train_success_rate']):.2f}, eval {float(last['success_rate']):.2f}" if last else "")
             + ")" + (f"; test success of its snapshots: {snaps}" if snaps else "") + "."
@@ -209,7 +214,7 @@ def latest_common_snapshot(runs):
     return max(common, default=None)
 
 
-def latest_orderings(runs):
+def latest_orderings(runs, lost=False):
     """The paper's orderings of Table I, and the drops, at the latest snapshot both runs have on the test set (one seed, in progress)."""
     labels = ("Dense+FMSR+IS", "Dense")
     by_label = {r["label"]: r for r in runs}
@@ -222,8 +227,11 @@ def latest_orderings(runs):
     if "stability" not in ta or "stability" not in tb:
         return []
     return ["", f"The paper's orderings of Table I, and the drops of its Table II, at snapshot {k}, on the fixed test set (rapier; our values mean ± std "
-            "over the episodes; the verdict needs our 95 % interval of the difference to exclude zero). In progress and "
-            "one seed each: the final comparison, on both engines and with 500 trials for the drops, is `finish`'s:", ""
+            "over the episodes; the verdict needs our 95 % interval of the difference to exclude zero). "
+            + ("Lost before the end and one seed each: the final comparison, on both engines and with 500 trials for "
+               "the drops (`finish`'s), was never run:" if lost else
+               "In progress and one seed each: the final comparison, on both engines and with 500 trials for the drops, "
+               "is `finish`'s:"), ""
             ] + long_runs_final.ORDERING_HEADER + long_runs_final.ordering_rows(ta, tb, ta["task"], labels) + [
             long_runs_final.drops_row(ta, tb, ta["task"], labels, f"test, {ta['episodes']}")]
 
@@ -236,18 +244,39 @@ def anchor(heading):
     return "".join(c for c in heading.lower() if c.isalnum() or c in " -_").replace(" ", "-")
 
 
+def lost_note(runs, earlier):
+    """The paragraph that says the running pair was lost: when it was found, where each record stops, what went."""
+    gone = [r for r in runs if r["lost"]]
+    if not gone:
+        return []
+    found = " and ".join(sorted({r["lost"] for r in gone}))
+    stops = " and ".join(f"{r['label']} after {len(r['metrics'])} epochs" for r in gone)
+    starts = {r["env"].get("STARTED") for r in earlier}
+    nth = {2: "second", 3: "third", 4: "fourth"}.get(len(starts) + 1, f"loss number {len(starts) + 1}")
+    before = f" This is the pair's {nth} loss; the earlier runs are listed at the end." if starts else ""
+    planned = {r["planned"] for r in gone}
+    end = f"{planned.pop()} epochs" if len(planned) == 1 else "the end"
+    return [f"**Lost before {end}.** The keeper's home was found gone at {found}: a session began on a "
+            "machine that was not kept from the one before, and every checkpoint, replay buffer, snapshot policy and the "
+            f"binary went with it.{before} What follows is the record as the last `record` left it: {stops} (the runs "
+            "trained on, unrecorded, until their session ended). No policy of these runs exists any more, so nothing more "
+            "can be evaluated, and none of it is a result at the paper's budget.", ""]
+
+
 def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
     """The section's lines between its markers; `finals` are the runs' final evaluations, or None before `finish`."""
     lines = [f"## {HEADING}", ""]
+    gone = any(r["lost"] for r in runs)
     lines.append(
         "Issue 37: both runs at the paper's config (`configs/egg_dense_fmsr_is.toml`, `configs/egg_dense.toml`: "
         "400 epochs of 25 cycles x 8 rollouts x 100 steps = 20k env steps, 25 x 25 gradient steps of 1024 samples, "
         "seed 0, rapier), one core each (`trainer.threads = 1`, `networks.threads = 1`, which do not change the "
-        "results), kept across sessions by `scripts/long_runs.sh` in `$HOME/.local/share/fmsr/long-runs`. "
-        "Until both reach 400 epochs this section is progress, not a result."
+        "results), kept across sessions by `scripts/long_runs.sh` in `$HOME/.local/share/fmsr/long-runs`."
+        + ("" if gone else " Until both reach 400 epochs this section is progress, not a result.")
     )
     lines.append("")
-    lines.append(f"- Machine: {machine()}; written by `scripts/long_runs.sh record` at commit `{commit}`.")
+    lines += lost_note(runs, lost)
+    lines.append(f"- Machine: {machine()}; written by `scripts/long_runs.sh` at commit `{commit}`.")
     for r in runs:
         e = r["env"]
         lines.append(
@@ -261,13 +290,14 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
     lines.append("Env steps count the training rollouts (20k an epoch) and the epoch's 50 evaluation episodes (5k).")
     lines.append("")
     lines += ["| Run | Epochs | Env steps | Wall time (h, training) | Median s/epoch (last 10) | Driver at record |", "|---|---|---|---|---|---|"]
+    driver = lambda r: f"lost (found {r['lost']})" if r["lost"] else "alive" if r["alive"] else "stopped"
     for r in runs:
         m = r["metrics"]
         hours = sum(float(x["seconds"]) for x in m) / 3600
         med = median([float(x["seconds"]) for x in m[-10:]])
         lines.append(
             f"| {r['label']} | {len(m)} / {r['planned']} | {m[-1]['env_steps'] if m else 0} | {hours:.1f} | "
-            f"{'n/a' if med is None else f'{med:.0f}'} | {'alive' if r['alive'] else 'stopped'} |"
+            f"{'n/a' if med is None else f'{med:.0f}'} | {driver(r)} |"
         )
     lines += ["", f"![learning curves]({records_rel}/curves.svg)", ""]
     lines.append(
@@ -308,11 +338,18 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
         if best is not None:
             t = dict(r["snapshots"])[best]["test"]
             lines.append("")
-            lines.append(f"- {r['label']}: the snapshot best on validation so far is epoch {best}, test success {pct(t['interval']) if t else 'n/a'}.")
-    lines += latest_orderings(runs)
+            when = "when the run was lost" if r["lost"] else "so far"
+            lines.append(f"- {r['label']}: the snapshot best on validation {when} is epoch {best}, test success {pct(t['interval']) if t else 'n/a'}.")
+    lines += latest_orderings(runs, gone)
     lines += lost_runs(lost, records_rel)
-    lines += long_runs_final.section_lines(finals, records_rel, pretrained_rel) if finals else ["", "Not yet: the final evaluation of issue 37, item 4 (500 episodes, MuJoCo, `fmsr report`, the paper's rows), "
-                       "which waits for both runs to reach 400 epochs (`scripts/long_runs.sh finish`)."]
+    if finals:
+        lines += long_runs_final.section_lines(finals, records_rel, pretrained_rel)
+    elif gone:
+        lines += ["", "Not run: the final evaluation of issue 37, item 4 (500 episodes, MuJoCo, `fmsr report`, the paper's "
+                  "rows): the runs were lost, with their policies, before 400 epochs."]
+    else:
+        lines += ["", "Not yet: the final evaluation of issue 37, item 4 (500 episodes, MuJoCo, `fmsr report`, the paper's rows), "
+                  "which waits for both runs to reach 400 epochs (`scripts/long_runs.sh finish`)."]
     return "\n".join(lines) + "\n"
 
 
@@ -330,7 +367,15 @@ def summary_bullet(runs, finals, link):
         return long_runs_final.summary_bullet(finals, link)
     done = min(len(r["metrics"]) for r in runs)
     k = latest_common_snapshot(runs)
-    text = f"- **Towards the paper's budget (in progress: {done} of {runs[0]['planned']} epochs), egg, seed 0:** "
+    if any(r["lost"] for r in runs):
+        if len({r["planned"] for r in runs}) == 1:
+            stops = " and ".join(str(len(r["metrics"])) for r in runs) + f" of {runs[0]['planned']}"
+        else:
+            stops = " and ".join(f"{len(r['metrics'])} of {r['planned']}" for r in runs)
+        state = f"lost with their machine; recorded to {stops} epochs"
+    else:
+        state = f"in progress: {done} of {runs[0]['planned']} epochs"
+    text = f"- **Towards the paper's budget ({state}), egg, seed 0:** "
     if k is not None:
         cells = [f"{r['label']} {pct(dict(r['snapshots'])[k]['test']['interval'])} ({dict(r['snapshots'])[k]['test']['drops']} drops)"
                  for r in runs]

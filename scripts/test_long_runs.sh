@@ -3,6 +3,7 @@
 # two tiny egg runs (Dense+FMSR+IS and Dense, 2 epochs of 2 episodes) are
 # started, must both end with their snapshot, `resume` must leave them alone,
 # a driver must wait for a lock held an instant (and train a third epoch),
+# `lost` must mark them only once their home is gone,
 # `finish` must refuse while a run is unfinished and then write every final
 # evaluation, policy, README, report and the section with the paper's rows.
 # Nothing of the real home, docs/ or pretrained/ is touched.
@@ -88,6 +89,28 @@ sleep 0.2
 bash "$dir/keeper.sh" _drive "$dir" >> "$dir/keeper.log" 2>&1
 wait
 grep -q "finished: 3 of 3 epochs" "$dir/keeper.log" || fail "a driver meeting a held lock gave up: $(tail -n 3 "$dir/keeper.log")"
+
+# A home found gone (a machine not kept, 2026-11-25 and 2026-11-27): `lost`
+# refuses while the home holds the runs, then marks them and says so in the
+# section, `resume` points at it, and a `record` that finds the runs in the
+# home after all removes the mark.
+"$keeper" record
+"$keeper" lost 2> "$scratch/refused" && fail "lost ran while the home holds the runs"
+grep -q "it is not lost" "$scratch/refused" || fail "lost refused for another reason: $(cat "$scratch/refused")"
+mv "$FMSR_LONG_RUNS" "$scratch/home.kept"
+"$keeper" resume > "$scratch/resumed"
+grep -q "not in the home: egg_dense egg_dense_fmsr_is; if the home was lost" "$scratch/resumed" || fail "resume did not point at lost: $(cat "$scratch/resumed")"
+"$keeper" lost
+for run in egg_dense_fmsr_is egg_dense; do
+  grep -q "^FOUND=" "$FMSR_LONG_RUNS_RECORDS/$run/lost.env" || fail "$run: not marked lost"
+done
+grep -q '^\*\*Lost before the end.\*\* The keeper' "$scratch/results.md" || fail "the section does not say the runs were lost"
+grep -q "lost with their machine; recorded to 2 of 2 and 3 of 3 epochs" "$scratch/results.md" || fail "the summary line does not say the runs were lost"
+"$keeper" resume | grep -q "not in the home" && fail "resume still points at runs marked lost"
+mv "$scratch/home.kept" "$FMSR_LONG_RUNS"
+"$keeper" record
+[ ! -e "$FMSR_LONG_RUNS_RECORDS/egg_dense/lost.env" ] || fail "record left the mark on a run the home holds"
+grep -q "Lost before" "$scratch/results.md" && fail "the section still says the runs were lost"
 
 "$keeper" finish
 for run in egg_dense_fmsr_is egg_dense; do
