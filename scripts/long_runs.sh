@@ -338,7 +338,7 @@ write_section() {
 }
 
 record() {
-  [ -d "$home" ] || die "no long-run home at $home"
+  [ -d "$home" ] || die "no long-run home at $home (if it was lost, \`$0 lost\` records that and rewrites the section)"
   cd "$repo"
   evaluate_snapshots
   write_section
