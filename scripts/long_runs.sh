@@ -432,25 +432,28 @@ finish() {
 # records), then rewrites the section from the records.
 lost() {
   cd "$repo"
-  local out name any=0 now
+  local out name now recorded=()
   now=$(date -u +%FT%TZ)
   for out in "$records"/*/; do
-    [ -f "$out/keeper.env" ] || continue
-    out=${out%/}
+    [ -f "$out/keeper.env" ] && recorded+=("${out%/}")
+  done
+  [ ${#recorded[@]} -gt 0 ] || die "no recorded run in $records"
+  # Refuse before marking anything: a run the home holds is not lost.
+  for out in "${recorded[@]}"; do
     name=$(basename "$out")
-    if [ -f "$home/$name/keeper.env" ]; then
-      cmp -s "$home/$name/keeper.env" "$out/keeper.env" && die "the home holds $name ($home/$name): it is not lost"
-      die "the home holds a later run $name than the one recorded: \`$0 record\` moves the earlier record aside"
-    fi
-    any=1
+    [ -f "$home/$name/keeper.env" ] || continue
+    cmp -s "$home/$name/keeper.env" "$out/keeper.env" && die "the home holds $name ($home/$name): it is not lost"
+    die "the home holds a later run $name than the one recorded: \`$0 record\` moves the earlier record aside"
+  done
+  for out in "${recorded[@]}"; do
+    name=$(basename "$out")
     if [ -f "$out/lost.env" ]; then
       echo "$name: marked lost before ($(cat "$out/lost.env"))"
     else
       printf 'FOUND=%s\nHOME=%s\n' "$now" "$home" > "$out/lost.env.tmp" && mv "$out/lost.env.tmp" "$out/lost.env"
-      echo "$name: lost, its record stops at $(($(wc -l < "$out/metrics.csv") - 1)) epochs"
+      echo "$name: lost, its record stops at $( [ -f "$out/metrics.csv" ] && echo $(($(wc -l < "$out/metrics.csv") - 1)) || echo 0) epochs"
     fi
   done
-  [ "$any" = 1 ] || die "no recorded run in $records"
   write_section
 }
 
