@@ -215,7 +215,7 @@ def latest_common_snapshot(runs):
 
 
 def latest_orderings(runs, lost=False):
-    """The paper's orderings of Table I, and the drops, at the latest snapshot both runs have on the test set (one seed, in progress)."""
+    """The paper's orderings of Table I, and the drops, at the latest snapshot both runs have on the test set (one seed, before `finish`)."""
     labels = ("Dense+FMSR+IS", "Dense")
     by_label = {r["label"]: r for r in runs}
     a, b = (by_label.get(label) for label in labels)
