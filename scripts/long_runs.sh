@@ -226,12 +226,13 @@ EOF
 
 runs() { for d in "$home"/*/; do [ -f "$d/keeper.env" ] && echo "${d%/}"; done; }
 
+# The runs' records in docs/ (each holds its keeper.env), as `runs` lists the home's.
+recorded() { for d in "$records"/*/; do if [ -f "$d/keeper.env" ]; then echo "${d%/}"; fi; done; }
+
 # Runs recorded in docs/ but neither in the home nor marked lost.
 unaccounted() {
   local out
-  for out in "$records"/*/; do
-    [ -f "$out/keeper.env" ] || continue
-    out=${out%/}
+  for out in $(recorded); do
     [ -f "$home/$(basename "$out")/keeper.env" ] || [ -f "$out/lost.env" ] || basename "$out"
   done
 }
@@ -432,25 +433,22 @@ finish() {
 # records), then rewrites the section from the records.
 lost() {
   cd "$repo"
-  local out name now recorded=()
+  local out name now
   now=$(date -u +%FT%TZ)
-  for out in "$records"/*/; do
-    [ -f "$out/keeper.env" ] && recorded+=("${out%/}")
-  done
-  [ ${#recorded[@]} -gt 0 ] || die "no recorded run in $records"
+  [ -n "$(recorded)" ] || die "no recorded run in $records"
   # Refuse before marking anything: a run the home holds is not lost.
-  for out in "${recorded[@]}"; do
+  for out in $(recorded); do
     name=$(basename "$out")
     [ -f "$home/$name/keeper.env" ] || continue
     cmp -s "$home/$name/keeper.env" "$out/keeper.env" && die "the home holds $name ($home/$name): it is not lost"
     die "the home holds a later run $name than the one recorded: \`$0 record\` moves the earlier record aside"
   done
-  for out in "${recorded[@]}"; do
+  for out in $(recorded); do
     name=$(basename "$out")
     if [ -f "$out/lost.env" ]; then
       echo "$name: marked lost before ($(cat "$out/lost.env"))"
     else
-      printf 'FOUND=%s\nHOME=%s\n' "$now" "$home" > "$out/lost.env.tmp" && mv "$out/lost.env.tmp" "$out/lost.env"
+      echo "FOUND=$now" > "$out/lost.env.tmp" && mv "$out/lost.env.tmp" "$out/lost.env"
       echo "$name: lost, its record stops at $( [ -f "$out/metrics.csv" ] && echo $(($(wc -l < "$out/metrics.csv") - 1)) || echo 0) epochs"
     fi
   done

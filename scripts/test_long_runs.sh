@@ -97,6 +97,11 @@ grep -q "finished: 3 of 3 epochs" "$dir/keeper.log" || fail "a driver meeting a 
 "$keeper" record
 "$keeper" lost 2> "$scratch/refused" && fail "lost ran while the home holds the runs"
 grep -q "it is not lost" "$scratch/refused" || fail "lost refused for another reason: $(cat "$scratch/refused")"
+# With one run gone and the other held, nothing is marked (6cd1bf0: the first was).
+mv "$FMSR_LONG_RUNS/egg_dense" "$scratch/egg_dense.kept"
+"$keeper" lost 2> "$scratch/refused" && fail "lost ran while the home holds egg_dense_fmsr_is"
+[ ! -e "$FMSR_LONG_RUNS_RECORDS/egg_dense/lost.env" ] || fail "lost marked egg_dense before it refused"
+mv "$scratch/egg_dense.kept" "$FMSR_LONG_RUNS/egg_dense"
 mv "$FMSR_LONG_RUNS" "$scratch/home.kept"
 "$keeper" resume > "$scratch/resumed"
 grep -q "not in the home: egg_dense egg_dense_fmsr_is; if the home was lost" "$scratch/resumed" || fail "resume did not point at lost: $(cat "$scratch/resumed")"
