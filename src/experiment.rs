@@ -52,7 +52,7 @@ use fmsr_core::method::Method;
 use fmsr_core::prelude::*;
 use fmsr_core::replay::ReplayConfig;
 use fmsr_core::sharing::SharingConfig;
-use fmsr_envs::shadow_hand::ShadowHandConfig;
+use fmsr_envs::shadow_hand::{GoalDistance, ShadowHandConfig};
 use fmsr_graph::Graph;
 use fmsr_nn::{
     AlgorithmKind, AnyLearner, CriticSharing, Device, DeviceSpec, LearnerParts, Maddpg, MaddpgConfig, Masac,
@@ -452,6 +452,35 @@ impl ExperimentConfig {
         let config = ExperimentConfig::deserialize(toml::Value::Table(value)).map_err(|e| parse_err(e.to_string()))?;
         config.validate()?;
         Ok(config.with_sections_written())
+    }
+
+    /// Parses the resolved experiment of a saved run or policy file. A saved
+    /// experiment names every setting of `[env]`; one that does not name
+    /// `env.goal_distance` was written before 2026-11-27, when the only
+    /// distance was the yaw error, and is read with `goal_distance = "yaw"`,
+    /// so that resuming or evaluating it reproduces its records. A user's
+    /// experiment file is read with [`Self::from_toml`], where the default is
+    /// the full angle.
+    ///
+    /// # Errors
+    /// As [`Self::from_toml`].
+    pub fn from_saved_toml(text: &str, path: &Path) -> Result<Self, ExperimentError> {
+        let parse_err = |message: String| ExperimentError::Parse { path: path.to_path_buf(), message };
+        let mut value: toml::Table = toml::from_str(text).map_err(|e| parse_err(e.to_string()))?;
+        let env = value.entry("env").or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        let env = env.as_table_mut().ok_or_else(|| parse_err("`env` must be a table".into()))?;
+        if !env.contains_key("goal_distance") {
+            env.insert("goal_distance".into(), toml::Value::String(GoalDistance::Yaw.key().into()));
+        }
+        let text = toml::to_string(&value).map_err(|e| parse_err(e.to_string()))?;
+        Self::from_toml(&text, path)
+    }
+
+    /// Reads and parses the resolved experiment of a saved run (`config.toml`),
+    /// as [`Self::from_saved_toml`].
+    pub fn load_saved(path: &Path) -> Result<Self, ExperimentError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ExperimentError::Io { path: path.into(), source })?;
+        Self::from_saved_toml(&text, path)
     }
 
     /// Reads and parses a TOML experiment file.

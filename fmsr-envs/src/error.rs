@@ -17,6 +17,14 @@ pub enum EnvError {
         /// The cargo feature that compiles it in.
         feature: &'static str,
     },
+    /// Every reset drawn for a seed left the object off the palm (gym's `is_on_palm`).
+    #[error("reset of seed {seed}: the object fell off the palm after settling in all {attempts} draws")]
+    Reset {
+        /// The episode's seed.
+        seed: u64,
+        /// Draws tried.
+        attempts: usize,
+    },
     /// `step` was called before `reset`.
     #[error("step called before reset")]
     NotReset,

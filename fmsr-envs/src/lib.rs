@@ -27,8 +27,8 @@ pub use error::EnvError;
 pub mod prelude {
     pub use crate::error::EnvError;
     pub use crate::shadow_hand::{
-        HandAgent, HandObject, HandPhysics, RapierHand, RapierSettings, ShadowHand, ShadowHandConfig, TouchObs,
-        fetch_hand_assets,
+        GoalDistance, HandAgent, HandObject, HandPhysics, RapierHand, RapierSettings, ShadowHand, ShadowHandConfig,
+        TouchObs, fetch_hand_assets,
     };
     pub use crate::team_reach::{TeamReach, TeamReachConfig};
 }

@@ -33,6 +33,7 @@ use super::render_target::RenderTarget;
 use super::run_dir::RunDir;
 use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError};
 use crate::provenance::Provenance;
+use fmsr_envs::shadow_hand::GoalDistance;
 
 /// The policy file format this build writes: 2, with CRC-32C. Version 1 (the
 /// same body with FNV-1a) is still read.
@@ -132,16 +133,24 @@ impl PolicyFile {
     /// the file carries, if any.
     #[must_use]
     pub fn eval_for(&self, engine: &str, set: EpisodeSet) -> Option<&EvalReport> {
-        self.evals.iter().find(|e| e.engine == engine && e.set == set)
+        self.eval_under(engine, set, self.config.env.goal_distance)
+    }
+
+    /// The evaluation the file carries for `engine` and `set` under `distance`.
+    #[must_use]
+    pub fn eval_under(&self, engine: &str, set: EpisodeSet, distance: GoalDistance) -> Option<&EvalReport> {
+        self.evals.iter().find(|e| e.engine == engine && e.set == set && e.goal_distance == distance)
     }
 
     /// Carries `eval` from now on, in place of the evaluation of the same
-    /// engine and episode set (test sets first, the training engine first).
+    /// engine, episode set and goal distance (test sets first, the training
+    /// engine first, the training distance first).
     pub fn record_eval(&mut self, eval: EvalReport) {
-        self.evals.retain(|e| !(e.engine == eval.engine && e.set == eval.set));
+        self.evals.retain(|e| !(e.engine == eval.engine && e.set == eval.set && e.goal_distance == eval.goal_distance));
         self.evals.push(eval);
         let own = self.config.engine.key();
-        self.evals.sort_by_key(|e| (e.set != EpisodeSet::Test, e.engine != own));
+        let distance = self.config.env.goal_distance;
+        self.evals.sort_by_key(|e| (e.set != EpisodeSet::Test, e.engine != own, e.goal_distance != distance));
     }
 
     /// The file's bytes.
@@ -176,7 +185,7 @@ impl PolicyFile {
             other => parse(format!("policy file: {other}")),
         })?;
         let json = |what: &str, text: &str| parse(format!("policy file's {what}: {text}"));
-        let config = ExperimentConfig::from_toml(&body.config, path)?;
+        let config = ExperimentConfig::from_saved_toml(&body.config, path)?;
         let provenance = serde_json::from_str(&body.provenance).map_err(|e| json("provenance", &e.to_string()))?;
         let metrics = body
             .metrics

@@ -5,15 +5,20 @@
 //! [`RapierHand`] is the pure-Rust backend (the default), and a MuJoCo backend
 //! only has to implement the trait.
 //!
-//! - **Reset**: the model's initial state, the object rotated about Z by
-//!   `U(-pi, pi)` and moved by `N(0, 0.005)` per axis, then `settle_steps` (10)
-//!   steps at zero action. The goal is the object's position after settling and a
-//!   rotation about Z by `U(-pi, pi)`.
+//! - **Reset**: the model's initial state, the object (upright in the model)
+//!   rotated about Z by `U(-pi, pi)` and moved by `N(0, 0.005)` per axis, then
+//!   `settle_steps` (10) steps at zero action; as gym's `_reset_sim`, the reset
+//!   is drawn again while the object's centre ends at or below 0.04 m
+//!   (`is_on_palm`). The goal is the object's position after settling and a
+//!   rotation about Z by `U(-pi, pi)`: an upright object turned about Z.
 //! - **Action**: `a` in `[-1, 1]^20` maps to `ctrl = mid + a * half_range` of each
 //!   actuator's `ctrlrange`; one step is `substeps` (20) physics steps of 0.002 s.
 //! - **Goals** are 7-dim (object position, quaternion `[w, x, y, z]` with `w >= 0`);
-//!   the goal distance is the angle between the achieved and desired rotation
-//!   about Z (yaw), wrapped to `[0, pi]`. Dense reward `-distance`, sparse `0` on
+//!   the goal distance ([`GoalDistance`], `goal_distance`) is by default the full
+//!   angle between the achieved and desired orientations, as gym's
+//!   `manipulate.py` measures it (a tilted object is far from an upright goal),
+//!   or the difference of their rotations about Z alone (`"yaw"`, the records
+//!   before 2026-11-27). Dense reward `-distance`, sparse `0` on
 //!   success and `-1` otherwise; success when `distance < success_threshold`
 //!   (0.1 in training, 0.4 in testing).
 //! - **Observation**: gymnasium's 153 values (24 hand qpos, 24 hand qvel, 6 object
@@ -21,8 +26,8 @@
 //!   agent is its own joints' positions and velocities, its own touch sensors,
 //!   and the object pose (7) and velocity (6).
 //! - **Features**: `safe_region` (object centre within `safe_radius` of the palm
-//!   centre) and `contacts` (at least `min_active_touch` = 10 of the 92 touch
-//!   sensors active).
+//!   centre) and `contacts` (at least `min_active_touch` = 11 of the 92 touch
+//!   sensors active: the paper's "greater than tau = 10").
 //! - **Drop**: the object centre below `drop_height` or farther than
 //!   `drop_distance` from the palm centre. Episodes are never terminated early
 //!   (gymnasium's semantics); the flag is in [`StepInfo::dropped`].
@@ -35,6 +40,7 @@ pub mod mujoco;
 pub mod physics;
 pub mod rapier;
 pub mod render;
+pub mod rotation;
 
 use std::f64::consts::PI;
 use std::path::PathBuf;
@@ -56,6 +62,7 @@ use self::model::{ACTUATORS, AGENTS, HAND_JOINTS, NUM_TOUCH, PREFIX};
 pub use self::mujoco::{MujocoHand, MujocoHandModel, MujocoSettings, load_mujoco_model};
 pub use self::physics::HandPhysics;
 pub use self::rapier::{RapierHand, RapierHandModel, RapierSettings};
+pub use self::rotation::GoalDistance;
 use crate::error::EnvError;
 
 /// How touch readings enter the observations.
@@ -88,13 +95,20 @@ pub struct ShadowHandConfig {
     pub position_noise: f64,
     /// Dense (default) or sparse task reward.
     pub reward: RewardType,
-    /// Success threshold on the angle error (rad; 0.1 in training (default), 0.4 in testing).
+    /// Success threshold on the goal distance (rad; 0.1 in training (default), 0.4 in testing).
     pub success_threshold: f32,
+    /// How the goal distance is measured: `"full"` (default, the full angle
+    /// between the orientations, gym's) or `"yaw"` (rotation about Z alone, the
+    /// records before 2026-11-27). A saved run or policy that names none was
+    /// made under `"yaw"` and is read so.
+    pub goal_distance: GoalDistance,
     /// `rho`: the `safe_region` radius around the palm centre, the centroid of the
     /// 8 palm touch sites (m, default 0.08; the paper gives no value). At rest at
     /// mid controls the block's centre is 4.5 cm and the egg's 6.4 cm from it.
     pub safe_radius: f64,
-    /// `tau`: active touch sensors for the `contacts` feature (default 10).
+    /// The `contacts` feature is on with at least this many active touch
+    /// sensors (default 11: the paper's "greater than tau = 10", eq. 12; the
+    /// records before 2026-11-27 used 10, which their configs name).
     pub min_active_touch: usize,
     /// Touch readings above this force (N) count as active (default 0: any contact).
     pub touch_threshold: f64,
@@ -157,8 +171,9 @@ impl Default for ShadowHandConfig {
             position_noise: 0.005,
             reward: RewardType::Dense,
             success_threshold: 0.1,
+            goal_distance: GoalDistance::Full,
             safe_radius: 0.08,
-            min_active_touch: 10,
+            min_active_touch: 11,
             touch_threshold: 0.0,
             touch_obs: TouchObs::Boolean,
             drop_height: 0.1,
@@ -312,6 +327,12 @@ fn partition_slots(partition: &[HandAgent]) -> Result<Vec<Vec<usize>>, EnvError>
     Ok(all)
 }
 
+/// The object is on the palm after a reset when its centre is higher (m; gym's `is_on_palm`).
+const ON_PALM_HEIGHT: f64 = 0.04;
+
+/// Resets drawn for one seed before giving up (gym retries without a bound).
+const MAX_RESET_ATTEMPTS: usize = 100;
+
 /// Which joints, actuators and touch sensors an agent owns.
 #[derive(Debug, Clone)]
 struct AgentIndex {
@@ -322,18 +343,6 @@ struct AgentIndex {
 /// Rotation about Z by `angle` as `[w, x, y, z]`.
 fn quat_z(angle: f64) -> [f64; 4] {
     [(angle / 2.0).cos(), 0.0, 0.0, (angle / 2.0).sin()]
-}
-
-/// The rotation angle about Z of a quaternion `[w, x, y, z]` (yaw).
-fn yaw(q: &[f32]) -> f32 {
-    let (w, x, y, z) = (q[0], q[1], q[2], q[3]);
-    (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z))
-}
-
-/// `|a - b|` wrapped to `[0, pi]`.
-fn angle_between(a: f32, b: f32) -> f32 {
-    let d = (a - b).rem_euclid(std::f32::consts::TAU);
-    d.min(std::f32::consts::TAU - d)
 }
 
 /// A standard normal draw for the object's initial position: Box-Muller on
@@ -458,7 +467,7 @@ impl<P: HandPhysics> ShadowHand<P> {
         self.physics.touch().iter().filter(|&&t| t > self.config.touch_threshold).count()
     }
 
-    /// The current angle error about Z between the object and the goal (rad).
+    /// The current goal distance between the object and the goal (rad), by `goal_distance`.
     #[must_use]
     pub fn angle_error(&self) -> f32 {
         self.goal_distance(&self.achieved_goal(), &self.goal)
@@ -560,17 +569,28 @@ impl<P: HandPhysics> Env for ShadowHand<P> {
 
     fn reset(&mut self, seed: u64) -> Result<Observation, EnvError> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        self.physics.reset();
-        let (p0, _) = self.physics.object_pose();
-        let angle = rng.random_range(-PI..PI);
-        let noise = self.config.position_noise;
-        let pos =
-            [p0[0] + noise * normal(&mut rng), p0[1] + noise * normal(&mut rng), p0[2] + noise * normal(&mut rng)];
-        self.physics.set_object_pose(pos, quat_z(angle));
-        let mid = self.action_to_ctrl(&[0.0; 20]);
-        self.physics.set_ctrl(&mid);
-        for _ in 0..self.config.settle_steps {
-            self.physics.step(self.config.substeps);
+        let mut attempts = 0;
+        loop {
+            self.physics.reset();
+            let (p0, _) = self.physics.object_pose();
+            let angle = rng.random_range(-PI..PI);
+            let noise = self.config.position_noise;
+            let pos =
+                [p0[0] + noise * normal(&mut rng), p0[1] + noise * normal(&mut rng), p0[2] + noise * normal(&mut rng)];
+            self.physics.set_object_pose(pos, quat_z(angle));
+            let mid = self.action_to_ctrl(&[0.0; 20]);
+            self.physics.set_ctrl(&mid);
+            for _ in 0..self.config.settle_steps {
+                self.physics.step(self.config.substeps);
+            }
+            attempts += 1;
+            // gym's `is_on_palm`: the object's centre above 0.04 m after settling.
+            if self.physics.object_pose().0[2] > ON_PALM_HEIGHT {
+                break;
+            }
+            if attempts >= MAX_RESET_ATTEMPTS {
+                return Err(EnvError::Reset { seed, attempts });
+            }
         }
         let goal_angle = rng.random_range(-PI..PI);
         let (p, _) = self.physics.object_pose();
@@ -614,7 +634,7 @@ impl<P: HandPhysics> Env for ShadowHand<P> {
         if achieved.len() < 7 || desired.len() < 7 {
             return f32::NAN;
         }
-        angle_between(yaw(&achieved[3..7]), yaw(&desired[3..7]))
+        self.config.goal_distance.between(&achieved[3..7], &desired[3..7])
     }
 
     fn goal_reward(&self, achieved: &[f32], desired: &[f32]) -> f32 {
@@ -660,7 +680,7 @@ mod tests {
     fn yaw_distance_wraps() {
         let a = quat_z(3.0).map(|v| v as f32);
         let b = quat_z(-3.0).map(|v| v as f32);
-        assert!((angle_between(yaw(&a), yaw(&b)) - (std::f32::consts::TAU - 6.0)).abs() < 1e-4);
-        assert!((yaw(&quat_z(0.7).map(|v| v as f32)) - 0.7).abs() < 1e-5);
+        assert!((rotation::yaw_error(&a, &b) - (std::f32::consts::TAU - 6.0)).abs() < 1e-4);
+        assert!((rotation::yaw(&quat_z(0.7).map(|v| v as f32)) - 0.7).abs() < 1e-5);
     }
 }
