@@ -313,7 +313,12 @@ impl Algorithm for Iddpg {
 
     fn update(&mut self, rewards: &dyn RewardModel) -> Result<UpdateStats, IddpgError> {
         let agents = self.actions.len();
-        let mut stats = UpdateStats { critic_loss: vec![0.0; agents], actor_loss: vec![0.0; agents], updates: 0 };
+        let mut stats = UpdateStats {
+            critic_loss: vec![0.0; agents],
+            actor_loss: vec![0.0; agents],
+            updates: 0,
+            ..Default::default()
+        };
         if self.replay.episodes() == 0 {
             return Ok(stats);
         }

@@ -13,14 +13,21 @@
 //! written before this rule carry [`SuccessRule::Reached`] and are marked so.
 //!
 //! Every success rate is given with its 95 % Wilson interval
-//! ([`fmsr_core::interval`]); each episode is recorded ([`EpisodeRecord`]).
+//! ([`fmsr_core::interval`]); each episode is recorded ([`EpisodeRecord`]),
+//! with its final orientation under both goal distances and the object's
+//! tilt ([`FinalOrientation`]). The same episodes are also played by a hand
+//! that holds still (zero action) on the same engine, the chance level every
+//! success is compared with ([`StillBaseline`]).
 
 use std::time::Instant;
 
-use fmsr_core::metrics::{EpisodeSummary, FailureCounts, GraspTrace, StabilityRow};
+use fmsr_core::metrics::{EpisodeOutcome, EpisodeSummary, FailureCounts, GraspTrace, StabilityRow};
 use fmsr_core::prelude::*;
 
-use crate::artefacts::{EpisodeRecord, EpisodeTrace, EvalReport, RunDir, Source, SuccessRule, classify, write_eval};
+use crate::artefacts::{
+    EpisodeRecord, EpisodeTrace, EvalReport, FinalOrientation, RunDir, Source, StillBaseline, SuccessRule, classify,
+    write_eval,
+};
 use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError};
 
 /// Evaluates the policy of the run in `dir` (its last checkpoint) on `env`, on
@@ -85,6 +92,7 @@ fn play<E: Env + ContactReadout + Send>(
         .first()
         .map_or(f32::INFINITY, |o| trainer.env().goal_distance(&o.achieved_goal, &o.desired_goal));
     let final_error = distances.last().copied().unwrap_or(f32::INFINITY);
+    let orientation = episode.observations.last().and_then(|o| FinalOrientation::of(&o.achieved_goal, &o.desired_goal));
     let drop_step = episode.infos.iter().position(|i| i.dropped);
     let contacts = trace.contacts();
     let summary = trace.summary();
@@ -96,6 +104,7 @@ fn play<E: Env + ContactReadout + Send>(
         drop_step,
         outcome: classify(final_error, threshold, drop_step.is_some()),
         total_contacts: summary.as_ref().map_or(0, |s| s.total_contacts),
+        orientation,
     };
     let series = EpisodeTrace {
         seed,
@@ -108,6 +117,32 @@ fn play<E: Env + ContactReadout + Send>(
         goal_distance: distances,
     };
     Ok(Played { record, summary, trace: series })
+}
+
+/// Plays the episodes of `seeds` on `env` with a hand that holds still:
+/// every step the zero action (each control at the middle of its range, the
+/// pose the reset settles in), as long as the policy's episodes.
+///
+/// # Errors
+/// The environment's errors.
+pub fn hold_still<E: Env>(env: &mut E, seeds: &[u64], threshold: f32) -> Result<StillBaseline, ExperimentError> {
+    let spec = env.spec().clone();
+    let zero = JointAction::zeros(spec.action_dim);
+    let env_err = |e: E::Error| ExperimentError::Core(CoreError::Env(Box::new(e)));
+    let mut still = StillBaseline { episodes: seeds.len(), successes: 0, drops: 0 };
+    for &seed in seeds {
+        let mut last = env.reset(seed).map_err(env_err)?;
+        let mut dropped = false;
+        for _ in 0..spec.episode_len {
+            let outcome = env.step(&zero).map_err(env_err)?;
+            dropped |= outcome.info.dropped;
+            last = outcome.observation;
+        }
+        let distance = env.goal_distance(&last.achieved_goal, &last.desired_goal);
+        still.drops += usize::from(dropped);
+        still.successes += usize::from(classify(distance, threshold, dropped) == EpisodeOutcome::Success);
+    }
+    Ok(still)
 }
 
 /// Evaluates the policy of `source` (a run's last checkpoint or a policy
@@ -139,6 +174,7 @@ pub fn evaluate_source_on<E: Env + ContactReadout + Send>(
         summaries.extend(played.summary);
         first_trace.get_or_insert(played.trace);
     }
+    let still = hold_still(trainer.env_mut(), &seeds, threshold)?;
     let outcomes: FailureCounts = records.iter().map(|r| r.outcome).collect();
     Ok(EvalReport {
         name: config.name.clone(),
@@ -151,6 +187,8 @@ pub fn evaluate_source_on<E: Env + ContactReadout + Send>(
         set,
         threshold,
         success_rule: SuccessRule::ReachedAndHeld,
+        goal_distance: config.env.goal_distance,
+        still: Some(still),
         success_rate: outcomes.success_rate().unwrap_or(0.0),
         stability: StabilityRow::from_summaries(&summaries),
         failures: outcomes.row(),

@@ -14,6 +14,7 @@ use fmsr::artefacts::{POLICY_FILE_NAME, PolicyFile, RunDir, Source};
 use fmsr::experiment::{Engine, EpisodeSet, ExperimentConfig};
 use fmsr::run;
 use fmsr_core::prelude::*;
+use fmsr_envs::shadow_hand::GoalDistance;
 
 /// Finger-specific Multi-agent Shadow Reward with Information Sharing.
 #[derive(Debug, Parser)]
@@ -111,6 +112,28 @@ struct EvalArgs {
     /// evaluation the file carries.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Count success by this goal distance (default: the one the policy
+    /// trained under, `env.goal_distance`): `full` (the full angle, gym's) or
+    /// `yaw` (rotation about Z alone, the records before 2026-11-27). In a run
+    /// directory, an evaluation under the other distance goes to
+    /// `eval-...-<distance>.json`.
+    #[arg(long, value_enum)]
+    goal_distance: Option<DistanceArg>,
+}
+
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+enum DistanceArg {
+    Full,
+    Yaw,
+}
+
+impl From<DistanceArg> for GoalDistance {
+    fn from(d: DistanceArg) -> Self {
+        match d {
+            DistanceArg::Full => GoalDistance::Full,
+            DistanceArg::Yaw => GoalDistance::Yaw,
+        }
+    }
 }
 
 #[derive(Debug, clap::Args)]
@@ -257,6 +280,7 @@ fn main() -> Result<()> {
                 record: false,
                 engine: None,
                 out: None,
+                goal_distance: None,
             })?;
             let config = dir.load_config()?;
             let mut runs = vec![dir.root().to_path_buf()];
@@ -437,6 +461,10 @@ fn eval(args: &EvalArgs) -> Result<()> {
     if let Some(n) = args.episodes {
         config.eval.episodes = n;
     }
+    let trained_under = config.env.goal_distance;
+    if let Some(d) = args.goal_distance {
+        config.env.goal_distance = d.into();
+    }
     config.validate()?;
     let engine = args.engine.map_or(config.engine, Engine::from);
     let set = EpisodeSet::from(args.set);
@@ -448,7 +476,14 @@ fn eval(args: &EvalArgs) -> Result<()> {
     let summary = fmsr::evaluate::evaluate_source_on(&config, env, engine, set, &source, dt)?;
     println!("{}", summary.to_markdown());
     let out = match &source {
-        Source::Run(dir) => Some(args.out.clone().unwrap_or_else(|| dir.eval_json_for(engine, config.engine, set))),
+        Source::Run(dir) => Some(args.out.clone().unwrap_or_else(|| {
+            let path = dir.eval_json_for(engine, config.engine, set);
+            if config.env.goal_distance == trained_under {
+                return path;
+            }
+            let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("eval").to_owned();
+            path.with_file_name(format!("{stem}-{}.json", config.env.goal_distance.key()))
+        })),
         Source::Policy { .. } => args.out.clone(),
     };
     if let Some(out) = out {
@@ -479,7 +514,7 @@ fn eval(args: &EvalArgs) -> Result<()> {
 /// Says whether a policy file's new evaluation repeats the one it carries.
 fn compare_with_carried(file: &PolicyFile, path: &std::path::Path, summary: &fmsr::artefacts::EvalReport) {
     let engine = summary.engine.as_str();
-    match file.eval_for(engine, summary.set) {
+    match file.eval_under(engine, summary.set, summary.goal_distance) {
         Some(recorded) if recorded.same_results(summary) => println!(
             "{}: the same results as the evaluation the file carries (every episode's outcome and final angle)",
             path.display()
@@ -500,9 +535,10 @@ fn compare_with_carried(file: &PolicyFile, path: &std::path::Path, summary: &fms
             recorded.episodes
         ),
         None => println!(
-            "{}: the file carries no {} evaluation on {engine} to compare with",
+            "{}: the file carries no {} evaluation on {engine} by the {} distance to compare with",
             path.display(),
-            summary.set.key()
+            summary.set.key(),
+            summary.goal_distance.key()
         ),
     }
 }

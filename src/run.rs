@@ -62,13 +62,13 @@ pub fn train_worker<E: Env + Send>(
             write_atomic(&dir.provenance(), &json)?;
         }
         write_atomic(&dir.config(), config.to_toml()?.as_bytes())?;
-        dir.write_metrics(trainer.history())?;
+        dir.write_metrics(trainer.history(), config.env.goal_distance)?;
         events = Some(EventWriter::create(dir.root())?);
     }
     trainer.train(|t, stats| {
         t.save_checkpoint(&dir.checkpoint())?;
         if writes {
-            dir.write_metrics(t.history())?;
+            dir.write_metrics(t.history(), config.env.goal_distance)?;
         }
         if let Some(events) = &mut events {
             events.write_epoch(stats, t.env().spec())?;

@@ -140,17 +140,21 @@ impl EventWriter {
         let value = |tag: String, v: f64| SummaryValue { tag, value: Some(Scalar::SimpleValue(v as f32)) };
         let mut values = vec![
             value("success/eval".into(), stats.success_rate),
+            value("success/eval_held".into(), stats.held_success_rate),
             value("success/train".into(), stats.train_success_rate),
             value("drop/eval".into(), stats.drop_rate),
             value("speed/env_steps_per_sec".into(), stats.env_steps_per_sec),
             value("speed/updates_per_sec".into(), stats.updates_per_sec),
         ];
-        let agent_series: [(&str, &[f64]); 5] = [
+        let agent_series: [(&str, &[f64]); 8] = [
             ("return", &stats.returns),
             ("critic_loss", &stats.critic_loss),
             ("actor_loss", &stats.actor_loss),
             ("task_reward_abs", &stats.task_reward_abs),
             ("shadow_reward_abs", &stats.shadow_reward_abs),
+            ("batch_task_reward_abs", &stats.batch_task_reward_abs),
+            ("batch_shadow_reward_abs", &stats.batch_shadow_reward_abs),
+            ("q_mean", &stats.q_mean),
         ];
         for (name, series) in agent_series {
             for (agent, v) in spec.agents.iter().zip(series) {

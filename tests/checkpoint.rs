@@ -197,4 +197,10 @@ fn shadow_rewards_that_outweigh_the_task_are_refused() {
     let stats = &t.history()[0];
     assert!(stats.shadow_reward_abs[2] > stats.task_reward_abs[2], "{stats:?}");
     assert_eq!(stats.shadow_reward_abs[0], 0.0, "agent x has no shadow reward");
+    // The same parts in the sampled batches (issue 52, item 3), and the critics' mean Q.
+    assert!(stats.batch_shadow_reward_abs[2] > stats.batch_task_reward_abs[2], "{stats:?}");
+    assert_eq!(stats.batch_shadow_reward_abs[0], 0.0, "agent x has no shadow reward");
+    assert!(stats.batch_task_reward_abs.iter().all(|&v| v > 0.0), "{stats:?}");
+    assert_eq!(stats.q_mean.len(), 3);
+    assert!(stats.q_mean.iter().all(|q| q.is_finite() && *q != 0.0), "{stats:?}");
 }

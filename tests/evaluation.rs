@@ -123,6 +123,46 @@ fn a_policy_file_takes_a_new_evaluation_in_place_of_its_old_one() {
     assert!(!out.status.success() && text(&out).contains("--record writes into a policy file"), "{}", text(&out));
 }
 
+// Guards that an evaluation names the goal distance its success was counted
+// by, and that it is the one used (issue 52): every record's final error is
+// its final orientation under the named distance, the other distance's
+// evaluation goes to its own file and counts by the other one, and a saved
+// run that names no distance (written before 2026-11-27) is read as yaw.
+#[test]
+fn an_evaluation_names_the_distance_it_counted_by() {
+    use fmsr_envs::shadow_hand::GoalDistance;
+    let tmp = tempfile::tempdir().unwrap();
+    let run = trained_tiny_run(tmp.path());
+    let run_s = run.to_str().unwrap();
+    let config = std::fs::read_to_string(run.join("config.toml")).unwrap();
+    assert!(config.contains("goal_distance = \"full\""), "{config}");
+    for (args, file, distance) in [
+        (vec!["eval", run_s, "--episodes", "4"], "eval.json", GoalDistance::Full),
+        (vec!["eval", run_s, "--episodes", "4", "--goal-distance", "yaw"], "eval-yaw.json", GoalDistance::Yaw),
+    ] {
+        let out = fmsr(&args);
+        assert!(out.status.success(), "{}", text(&out));
+        assert!(text(&out).contains(&format!("by the {} distance", distance.key())), "{}", text(&out));
+        assert!(text(&out).contains(&format!("Under the {} distance:", distance.other().key())), "{}", text(&out));
+        let eval = read_eval(&run.join(file));
+        assert_eq!(eval.goal_distance, distance, "{file}");
+        let still = eval.still.expect("the hold-still baseline is simulated");
+        assert_eq!(still.episodes, 4);
+        for r in &eval.records {
+            let o = r.orientation.expect("the final orientation is recorded");
+            assert_eq!(r.final_error, o.error(distance), "{file}: {r:?}");
+            assert!(o.full_angle.is_finite() && o.tilt.is_finite() && o.yaw_error <= std::f32::consts::PI);
+        }
+    }
+    // The same run, its config written before the distance existed.
+    let legacy = config.replace("goal_distance = \"full\"\n", "");
+    assert_ne!(legacy, config);
+    std::fs::write(run.join("config.toml"), legacy).unwrap();
+    let out = fmsr(&["eval", run_s, "--episodes", "2"]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert_eq!(read_eval(&run.join("eval.json")).goal_distance, GoalDistance::Yaw);
+}
+
 /// Waits until `cond` holds, for at most a minute.
 fn wait_for(what: &str, cond: impl Fn() -> bool) {
     let start = Instant::now();

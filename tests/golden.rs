@@ -19,6 +19,13 @@
 //! when numbers are meant to change, and the commit says why):
 //! `FMSR_GOLDEN=record FMSR_GOLDEN_COMMIT=<commit> cargo test --workspace --test golden`.
 //!
+//! The runs train the task of the recordings: the yaw goal distance and at
+//! least 10 active sensors for `contacts` (`env.goal_distance = "yaw"`,
+//! `env.min_active_touch = 10`), the defaults before 2026-11-27 (issue 52):
+//! that the yaw distance still gives these numbers bit for bit is what lets
+//! every earlier record be reproduced. Statistics added to `EpochStats`
+//! since a recording was made are compared when the recording has them.
+//!
 //! Numbers were meant to change once since the redesign: at 20cabc9 the
 //! learners' normals moved to rand_distr, and this CPU's recording was made
 //! again at that commit. The avx2 recording (e7b2f9c) could not be made again
@@ -103,6 +110,9 @@ fn config(algorithm: &str, sharing: &str) -> ExperimentConfig {
     assert_eq!(text.matches(from).count(), 1, "the quick config's sharing changed: update this test");
     text = text.replace(from, &format!("[sharing]\n{sharing}\n"));
     text = format!("algorithm = \"{algorithm}\"\n{text}");
+    let env = "[env]\n";
+    assert_eq!(text.matches(env).count(), 1, "the quick config's [env] changed: update this test");
+    text = text.replace(env, "[env]\ngoal_distance = \"yaw\"\nmin_active_touch = 10\n");
     let mut config = ExperimentConfig::from_toml(&text, Path::new("golden.toml")).unwrap();
     config.trainer.epochs = EPOCHS;
     config
@@ -173,9 +183,21 @@ fn every_algorithm_repeats_its_recorded_run_bit_for_bit() {
     assert_eq!(now.len(), recording.traces.len());
     for (now, then) in now.iter().zip(&recording.traces) {
         assert_eq!(now.run, then.run, "the runs of the golden test changed: record anew");
+        assert_eq!(now.history.len(), then.history.len(), "{}: epochs", now.run);
         for (epoch, (a, b)) in now.history.iter().zip(&then.history).enumerate() {
-            assert_eq!(a, b, "{}: epoch {epoch}'s statistics differ from the recording", now.run);
+            let (Value::Object(a), Value::Object(b)) = (a, b) else {
+                panic!("{}: epoch {epoch} is not a map", now.run)
+            };
+            for (key, recorded) in b {
+                assert_eq!(
+                    a.get(key),
+                    Some(recorded),
+                    "{}: epoch {epoch}'s `{key}` differs from the recording",
+                    now.run
+                );
+            }
         }
-        assert_eq!(now, then, "{}: the greedy episode differs from the recording", now.run);
+        let episode = |t: &Trace| Trace { history: Vec::new(), ..t.clone() };
+        assert_eq!(episode(now), episode(then), "{}: the greedy episode differs from the recording", now.run);
     }
 }

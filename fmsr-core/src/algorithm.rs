@@ -43,6 +43,19 @@ pub struct UpdateStats {
     pub critic_loss: Vec<f64>,
     /// Mean actor loss of each agent (over the steps that updated actors).
     pub actor_loss: Vec<f64>,
+    /// Each agent's mean `|task part|` of the rewards in the sampled batches,
+    /// HER's relabelled goals included (empty when the algorithm does not
+    /// say): the task reward as the critics learn it.
+    #[serde(default)]
+    pub batch_task_reward_abs: Vec<f64>,
+    /// Each agent's mean `|shadow part|` of the same rewards (the agent's
+    /// reward for the step less its reward with a zero task reward).
+    #[serde(default)]
+    pub batch_shadow_reward_abs: Vec<f64>,
+    /// Each agent's mean `Q_i(x, g, a)` of its (first) online critic over the
+    /// sampled batches (empty when the algorithm does not say).
+    #[serde(default)]
+    pub q_mean: Vec<f64>,
 }
 
 /// A multi-agent learning algorithm: a [`Policy`] that also learns.

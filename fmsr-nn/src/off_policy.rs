@@ -216,7 +216,8 @@ fn run_cycle(
     agents: usize,
     mut step: impl FnMut() -> Result<Option<StepLosses>, NnError>,
 ) -> Result<UpdateStats, NnError> {
-    let mut stats = UpdateStats { updates: 0, critic_loss: vec![0.0; agents], actor_loss: vec![0.0; agents] };
+    let mut stats =
+        UpdateStats { updates: 0, critic_loss: vec![0.0; agents], actor_loss: vec![0.0; agents], ..Default::default() };
     let mut actor_steps = 0usize;
     for _ in 0..batches {
         let Some(StepLosses { critic, actor }) = step()? else { break };
@@ -254,10 +255,11 @@ impl<R: UpdateRule> Algorithm for OffPolicy<R> {
 
     fn update(&mut self, rewards: &dyn RewardModel) -> Result<UpdateStats, NnError> {
         let (batches, agents) = (self.learner.replay_config.batches, self.learner.num_agents());
-        let stats = run_cycle(batches, agents, || self.step(rewards))?;
+        let mut stats = run_cycle(batches, agents, || self.step(rewards))?;
         if stats.updates > 0 {
             self.update_targets();
         }
+        self.learner.diagnostics.take_into(&mut stats);
         Ok(stats)
     }
 

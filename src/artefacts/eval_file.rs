@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use fmsr_core::interval::Interval;
 use fmsr_core::metrics::{EpisodeOutcome, EpisodeSummary, FailureCounts, FailureRow, MeanStd, StabilityRow};
+use fmsr_envs::shadow_hand::GoalDistance;
 
 use crate::experiment::{EpisodeSet, ExperimentError};
 
@@ -78,6 +79,56 @@ pub struct EpisodeRecord {
     pub outcome: EpisodeOutcome,
     /// Active touch sensors summed over the steps (Table I's "Total Contact").
     pub total_contacts: usize,
+    /// The object's final orientation against the goal's, under both
+    /// distances, and its tilt (absent in files written before 2026-11-27).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub orientation: Option<FinalOrientation>,
+}
+
+/// Where the object ended, by every measure of its orientation (rad).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct FinalOrientation {
+    /// The full angle between the final and the goal orientation.
+    pub full_angle: f32,
+    /// The difference of their rotations about Z.
+    pub yaw_error: f32,
+    /// The angle between the object's axis and the world's Z axis.
+    pub tilt: f32,
+}
+
+impl FinalOrientation {
+    /// The orientations of a 7-dim achieved and desired goal (position, `[w, x, y, z]`).
+    #[must_use]
+    pub fn of(achieved: &[f32], desired: &[f32]) -> Option<Self> {
+        use fmsr_envs::shadow_hand::rotation::{full_angle, tilt, yaw_error};
+        (achieved.len() >= 7 && desired.len() >= 7).then(|| Self {
+            full_angle: full_angle(&achieved[3..7], &desired[3..7]),
+            yaw_error: yaw_error(&achieved[3..7], &desired[3..7]),
+            tilt: tilt(&achieved[3..7]),
+        })
+    }
+
+    /// The final error under `distance`.
+    #[must_use]
+    pub fn error(&self, distance: GoalDistance) -> f32 {
+        match distance {
+            GoalDistance::Full => self.full_angle,
+            GoalDistance::Yaw => self.yaw_error,
+        }
+    }
+}
+
+/// The same episodes played by a hand that holds still (zero action, the
+/// controls at the middle of their ranges), on the same engine: what an
+/// evaluation's success is compared with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StillBaseline {
+    /// Episodes played.
+    pub episodes: usize,
+    /// Turned (by chance) and held: final distance under the threshold, never dropped.
+    pub successes: usize,
+    /// Episodes in which the object was dropped.
+    pub drops: usize,
 }
 
 /// The evaluation of one run, as written to `eval.json`.
@@ -107,6 +158,15 @@ pub struct EvalReport {
     /// What counted as a success (absent in older files: [`SuccessRule::Reached`]).
     #[serde(default = "SuccessRule::legacy")]
     pub success_rule: SuccessRule,
+    /// The goal distance of the threshold (absent in files written before
+    /// 2026-11-27: [`GoalDistance::Yaw`], the only one then).
+    #[serde(default = "legacy_distance")]
+    pub goal_distance: GoalDistance,
+    /// The episodes played by a hand that holds still (absent in files
+    /// written before 2026-11-27, whose chance level is estimated from the
+    /// initial errors).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub still: Option<StillBaseline>,
     /// Fraction of episodes that succeeded.
     pub success_rate: f64,
     /// Table I's stability measures over the test episodes.
@@ -129,6 +189,11 @@ pub struct EvalReport {
     pub trace: EpisodeTrace,
     /// Wall time of the evaluation (s).
     pub seconds: f64,
+}
+
+/// The distance of evaluations that do not name one.
+fn legacy_distance() -> GoalDistance {
+    GoalDistance::Yaw
 }
 
 fn cell(x: Option<MeanStd>, scale: f64, precision: usize) -> String {
@@ -235,14 +300,17 @@ impl EvalReport {
         }
     }
 
-    /// The chance level of these episodes, with its 95 % interval: the success
-    /// of a policy that holds the object still without dropping it, i.e. the
-    /// fraction of episodes that start within the threshold (`None` for files
-    /// of older versions). A policy that never turns the object does no better
-    /// (it may drop it). With the goal and the start drawn uniformly about Z,
-    /// it tends to `threshold / pi` (12.7 % at 0.4 rad).
+    /// The success of a hand that holds still on these episodes, with its
+    /// 95 % interval: simulated ([`Self::still`]), or in files written before
+    /// 2026-11-27 estimated as the fraction of episodes that start within the
+    /// threshold (`None` for files older still). Under the yaw distance the
+    /// estimate tends to `threshold / pi` (12.7 % at 0.4 rad); it ignores that
+    /// an object left alone may tip over or fall, which the simulation sees.
     #[must_use]
     pub fn still_success(&self) -> Option<Interval> {
+        if let Some(still) = self.still {
+            return Interval::wilson(still.successes, still.episodes);
+        }
         let initial = self.initial_errors();
         Interval::wilson(initial.iter().filter(|&&d| d < self.threshold).count(), initial.len())
     }
@@ -251,14 +319,38 @@ impl EvalReport {
     #[must_use]
     pub fn against_chance(&self) -> String {
         let what = format!("{} success {}", self.set.key(), self.success_cell());
+        let how = if self.still.is_some() {
+            "the same episodes simulated with zero action".to_string()
+        } else {
+            format!("estimated: the episodes that start within {} rad", self.threshold)
+        };
         match self.still_success() {
             Some(still) => format!(
-                "{what} against {} for a policy that holds the object still (the episodes that start within {} rad); 95 % Wilson intervals",
+                "{what} against {} for a hand that holds still ({how}); {} distance; 95 % Wilson intervals",
                 still.percent(),
-                self.threshold
+                self.goal_distance.key()
             ),
             None => format!("{what} (chance level not recorded)"),
         }
+    }
+
+    /// Of this evaluation's successes, how many would fail under the other
+    /// goal distance, and of its failures how many would succeed under it:
+    /// `None` when the records hold no final orientation (files written before
+    /// 2026-11-27).
+    #[must_use]
+    pub fn under_other_distance(&self) -> Option<(usize, usize)> {
+        let other = self.goal_distance.other();
+        let mut lost = 0;
+        let mut gained = 0;
+        for r in &self.records {
+            let o = r.orientation?;
+            let success = r.outcome == EpisodeOutcome::Success;
+            let other_success = o.error(other) < self.threshold && !r.dropped;
+            lost += usize::from(success && !other_success);
+            gained += usize::from(!success && other_success);
+        }
+        (!self.records.is_empty()).then_some((lost, gained))
     }
 
     /// Whether `other` has the same results: everything but the wall time
@@ -274,13 +366,14 @@ impl EvalReport {
         let mut out = String::new();
         let _ = writeln!(
             out,
-            "{} ({}, {} epochs, {} {} episodes at {} rad, {:.0} s)\n",
+            "{} ({}, {} epochs, {} {} episodes at {} rad by the {} distance, {:.0} s)\n",
             self.name,
             self.engine,
             self.epochs,
             self.episodes,
             self.set.key(),
             self.threshold,
+            self.goal_distance.key(),
             self.seconds
         );
         out.push_str(&Self::table1_header());
@@ -289,6 +382,15 @@ impl EvalReport {
         out.push_str(&Self::table2_header());
         out.push_str(&self.table2_row());
         let _ = writeln!(out, "\n{}: {}.", self.name, self.against_chance());
+        if let Some((lost, gained)) = self.under_other_distance() {
+            let (this, other) = (self.goal_distance.key(), self.goal_distance.other().key());
+            let _ = writeln!(
+                out,
+                "Under the {other} distance: {lost} of the {} successes by the {this} distance would fail, \
+                 and {gained} of its failures would succeed.",
+                self.outcomes.successes
+            );
+        }
         if self.success_rule == SuccessRule::Reached {
             let _ = writeln!(out, "* {}.", self.success_rule.describe());
         }
@@ -341,6 +443,7 @@ mod tests {
                 drop_step: (outcome == EpisodeOutcome::Failure(FailureType::Drop)).then_some(7),
                 outcome,
                 total_contacts: 0,
+                orientation: None,
             })
             .collect();
         let counts: FailureCounts = outcomes.into_iter().collect();
@@ -355,6 +458,8 @@ mod tests {
             set: EpisodeSet::Test,
             threshold: 0.4,
             success_rule: rule,
+            goal_distance: GoalDistance::Yaw,
+            still: None,
             success_rate: counts.success_rate().unwrap(),
             stability: None,
             outcomes: counts,

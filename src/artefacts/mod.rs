@@ -12,7 +12,9 @@ mod policy_file;
 mod render_target;
 mod run_dir;
 
-pub use self::eval_file::{EpisodeRecord, EpisodeTrace, EvalReport, SuccessRule, read_eval, write_eval};
+pub use self::eval_file::{
+    EpisodeRecord, EpisodeTrace, EvalReport, FinalOrientation, StillBaseline, SuccessRule, read_eval, write_eval,
+};
 pub use self::policy_file::{POLICY_FILE_NAME, POLICY_FILE_VERSION, PolicyFile, Source, matching_policies};
 pub use self::render_target::RenderTarget;
 pub use self::run_dir::{RunDir, RunLock};

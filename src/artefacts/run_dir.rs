@@ -23,6 +23,7 @@ use fmsr_core::prelude::*;
 
 use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError};
 use crate::provenance::Provenance;
+use fmsr_envs::shadow_hand::GoalDistance;
 
 /// The writer lock of a run directory ([`RunDir::lock`]), released on drop.
 #[derive(Debug)]
@@ -170,7 +171,7 @@ impl RunDir {
 
     /// Reads the run's configuration.
     pub fn load_config(&self) -> Result<ExperimentConfig, ExperimentError> {
-        ExperimentConfig::load(&self.config())
+        ExperimentConfig::load_saved(&self.config())
     }
 
     /// Reads the per-epoch statistics.
@@ -188,8 +189,10 @@ impl RunDir {
             .collect()
     }
 
-    /// Writes the per-epoch statistics (JSON lines and CSV), atomically.
-    pub fn write_metrics(&self, history: &[EpochStats]) -> Result<(), CoreError> {
+    /// Writes the per-epoch statistics (JSON lines and CSV), atomically. The
+    /// CSV names the goal distance `distance` of every epoch's success (the
+    /// run's `env.goal_distance`).
+    pub fn write_metrics(&self, history: &[EpochStats], distance: GoalDistance) -> Result<(), CoreError> {
         let mut jsonl = String::new();
         for s in history {
             let line = serde_json::to_string(s)
@@ -199,22 +202,30 @@ impl RunDir {
         }
         write_atomic(&self.metrics_jsonl(), jsonl.as_bytes())?;
         let mut csv = String::from(
-            "epoch,success_rate,train_success_rate,drop_rate,env_steps,updates,env_steps_per_sec,updates_per_sec,seconds",
+            "epoch,goal_distance,success_rate,held_success_rate,train_success_rate,drop_rate,env_steps,updates,env_steps_per_sec,updates_per_sec,seconds",
         );
         let (k, n) = history.first().map_or((0, 0), |s| (s.occupancy.len(), s.returns.len()));
         for i in 0..k {
             let _ = write!(csv, ",occupancy_{i},eval_feature_rate_{i}");
         }
         for i in 0..n {
-            let _ = write!(csv, ",return_{i},critic_loss_{i},actor_loss_{i},task_reward_abs_{i},shadow_reward_abs_{i}");
+            let _ = write!(
+                csv,
+                ",return_{i},critic_loss_{i},actor_loss_{i},task_reward_abs_{i},shadow_reward_abs_{i},\
+                 batch_task_reward_abs_{i},batch_shadow_reward_abs_{i},q_mean_{i}"
+            );
         }
         csv.push('\n');
+        // A value the epoch did not record (metrics of older runs) is an empty cell.
+        let opt = |v: Option<&f64>| v.map_or_else(String::new, f64::to_string);
         for s in history {
             let _ = write!(
                 csv,
-                "{},{},{},{},{},{},{:.1},{:.2},{:.2}",
+                "{},{},{},{},{},{},{},{},{:.1},{:.2},{:.2}",
                 s.epoch,
+                distance.key(),
                 s.success_rate,
+                s.held_success_rate,
                 s.train_success_rate,
                 s.drop_rate,
                 s.env_steps,
@@ -229,12 +240,15 @@ impl RunDir {
             for i in 0..n {
                 let _ = write!(
                     csv,
-                    ",{},{},{},{},{}",
+                    ",{},{},{},{},{},{},{},{}",
                     s.returns[i],
                     s.critic_loss.get(i).copied().unwrap_or(0.0),
                     s.actor_loss.get(i).copied().unwrap_or(0.0),
                     s.task_reward_abs.get(i).copied().unwrap_or(0.0),
-                    s.shadow_reward_abs.get(i).copied().unwrap_or(0.0)
+                    s.shadow_reward_abs.get(i).copied().unwrap_or(0.0),
+                    opt(s.batch_task_reward_abs.get(i)),
+                    opt(s.batch_shadow_reward_abs.get(i)),
+                    opt(s.q_mean.get(i))
                 );
             }
             csv.push('\n');

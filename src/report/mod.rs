@@ -188,12 +188,12 @@ fn renderings_section(runs: &[RunRecord], out: &Path) -> Result<String, Experime
 /// Each evaluated run's test success beside the chance level of its test set.
 fn chance_section(runs: &[RunRecord]) -> String {
     let mut md = String::from(
-        "\n## Against chance\n\nA policy that holds the object still succeeds in the test episodes that start within the threshold, and one that never turns it does no better; a result near that level has not learned to rotate.\n\n| Run | Configuration | Test success | Holding still |\n|---|---|---|---|\n",
+        "\n## Against chance\n\nThe same test episodes played by a hand that holds still (zero action, simulated on the evaluation's engine; in evaluations written before 2026-11-27, estimated as the episodes that start within the threshold): a result near that level has not learned to rotate. The goal distance is the one the success was counted by: `full` (the full angle between the orientations, gym's) or `yaw` (rotation about Z alone, the records before 2026-11-27).\n\n| Run | Configuration | Goal distance | Test success | Holding still |\n|---|---|---|---|---|\n",
     );
     for r in runs {
         let Some(e) = &r.eval else { continue };
         let (test, still) = choice::chance_cells(e);
-        let _ = writeln!(md, "| {} | {} | {test} | {still} |", r.dir.display(), e.method);
+        let _ = writeln!(md, "| {} | {} | {} | {test} | {still} |", r.dir.display(), e.method, e.goal_distance.key());
     }
     md
 }
@@ -390,6 +390,7 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
     let mut differences = String::new();
     let mut missing_eval = Vec::new();
     let mut old_rule = false;
+    let mut distances = std::collections::BTreeSet::new();
     for (task, task_runs) in &by_task {
         let mut chosen = Vec::new();
         for configuration in configurations(task_runs) {
@@ -399,6 +400,7 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
                 table1.push_str(&e.table1_row());
                 table2.push_str(&e.table2_row());
                 old_rule |= e.success_rule == crate::artefacts::SuccessRule::Reached;
+                distances.insert(e.goal_distance.key());
                 let _ = writeln!(chosen_md, "- {task}, {}: {} ({})", configuration.1, r.dir.display(), how.describe());
                 chosen.push((r, e, how));
             }
@@ -437,6 +439,13 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
     summary.push_str("## Table I: task performance and manipulation stability\n\n");
     summary.push_str("Success on the fixed test set: the object within the test threshold at the last step and never dropped, with its 95 % Wilson interval; the other columns are mean ± std across the test episodes of the per-episode values (total active touch sensors over the episode; mean Q_MSV and Q_VEW of the grasp matrix; mean |dQ/dt|; mean distance of the contacts to the centre of mass). A configuration with several seeds is shown by its best run on the validation episodes, as the paper shows its best.\n\n");
     summary.push_str(&table1);
+    if !distances.is_empty() {
+        let _ = writeln!(
+            summary,
+            "\nSuccess counted by the goal distance: {} (`full`: the full angle between the orientations, gym's; `yaw`: rotation about Z alone, the records before 2026-11-27).",
+            distances.into_iter().collect::<Vec<_>>().join(", ")
+        );
+    }
     if old_rule {
         summary.push_str("\n\\* An evaluation written before success required the object held: drops within the threshold counted as successes. `fmsr eval` again gives today's number.\n");
     }

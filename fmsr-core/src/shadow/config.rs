@@ -22,12 +22,16 @@ pub struct ShadowConfig {
     pub occupancy: Averaging,
     /// Which features each agent receives; `None` is the paper's eqs. 13-15.
     pub assignment: Option<RewardAssignment>,
-    /// The largest ratio, for any agent, of its mean per-step shadow reward
-    /// `|alpha sum_k z_k|` to its mean per-step task reward `|w_i r|` over the
-    /// first cycle's episodes (default 1.0: shadow rewards must not outweigh the
-    /// task). Training stops with an error naming both values when an agent's
-    /// ratio is larger; `inf` disables the check. Every epoch logs both means
-    /// per agent (`EpochStats::task_reward_abs`, `EpochStats::shadow_reward_abs`).
+    /// The largest ratio, for any agent, of its mean shadow reward
+    /// `|alpha sum_k z_k|` to its mean task reward `|w_i r|` in the first
+    /// cycle's sampled batches, as the critics see them (HER's relabelled
+    /// goals included; in its episodes for an algorithm that does not report
+    /// its batches). Default 1.0: shadow rewards must not outweigh the task.
+    /// Training stops with an error naming both values when an agent's ratio
+    /// is larger; `inf` disables the check. Every epoch logs both means per
+    /// agent, in the batches (`EpochStats::batch_task_reward_abs`,
+    /// `EpochStats::batch_shadow_reward_abs`) and in the episodes
+    /// (`EpochStats::task_reward_abs`, `EpochStats::shadow_reward_abs`).
     pub max_scale: f64,
 }
 

@@ -269,15 +269,16 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
     /// environment's own success flag at the last step (its training threshold):
     /// drops are not looked at, as HER's logging counts success (with `None`,
     /// the eval success of `metrics.csv`). Dropped episodes are counted apart
-    /// ([`EvalSummary::drop_rate`]); the test's rule, where a drop is a failure, is
-    /// [`crate::metrics::classify`].
+    /// ([`EvalSummary::drop_rate`]), and the successes under the test's rule,
+    /// where a drop is a failure ([`crate::metrics::classify`]), apart too
+    /// ([`EvalSummary::held_success_rate`]).
     ///
     /// # Errors
     /// Errors of the environment or the policy.
     pub fn evaluate(&mut self, seeds: &[u64], threshold: Option<f32>) -> Result<EvalSummary, CoreError> {
         let k = self.env().spec().features.len();
         let mut summary = EvalSummary { episodes: seeds.len(), feature_rates: vec![0.0; k], ..EvalSummary::default() };
-        let (mut successes, mut drops, mut steps) = (0usize, 0usize, 0usize);
+        let (mut successes, mut held, mut drops, mut steps) = (0usize, 0usize, 0usize, 0usize);
         for ep in self.collector.rollouts(&mut self.algorithm, seeds, ActMode::Evaluate)? {
             let Some(last) = ep.observations.last() else { continue };
             let d = self.env().goal_distance(&last.achieved_goal, &last.desired_goal);
@@ -285,8 +286,10 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
                 Some(t) => d < t,
                 None => ep.infos.last().is_some_and(|i| i.is_success),
             };
+            let dropped = ep.infos.iter().any(|i| i.dropped);
             successes += usize::from(success);
-            drops += usize::from(ep.infos.iter().any(|i| i.dropped));
+            held += usize::from(success && !dropped);
+            drops += usize::from(dropped);
             summary.final_distances.push(d);
             accumulate_features(&ep.infos, &mut summary.feature_rates);
             steps += ep.infos.len();
@@ -294,6 +297,7 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
         let n = seeds.len().max(1) as f64;
         summary.success_rate = successes as f64 / n;
         summary.drop_rate = drops as f64 / n;
+        summary.held_success_rate = held as f64 / n;
         summary.feature_rates.iter_mut().for_each(|r| *r /= steps.max(1) as f64);
         Ok(summary)
     }
@@ -356,19 +360,30 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
     }
 
     /// `trainer.shadow.max_scale`: no agent's shadow rewards may outweigh its
-    /// task rewards by more than that ratio in the first cycle.
+    /// task rewards by more than that ratio in the first cycle, as the critics
+    /// see them: in the sampled batches, HER's relabelled goals included (in
+    /// the cycle's episodes when the algorithm does not report its batches).
+    /// Every epoch logs both magnitudes in the batches; only the first cycle
+    /// stops training, because the task's magnitude falls as the policy
+    /// learns (0.1 per step at the training threshold), and a fixed bound
+    /// would stop a run for succeeding.
     fn check_shadow_scale(&self, tally: &EpochTally) -> Result<(), CoreError> {
         let max = self.config.shadow.max_scale;
         let names = &self.env().spec().agents;
-        for (i, (&task, &shadow)) in tally.task_abs.iter().zip(&tally.shadow_abs).enumerate() {
+        let (task_abs, shadow_abs, rows, where_) = if tally.reports_batches {
+            (&tally.batch_task_abs, &tally.batch_shadow_abs, 1, "sampled batches")
+        } else {
+            (&tally.task_abs, &tally.shadow_abs, tally.steps, "episodes")
+        };
+        for (i, (&task, &shadow)) in task_abs.iter().zip(shadow_abs).enumerate() {
             if shadow > max * task {
-                let steps = tally.steps.max(1) as f64;
+                let steps = rows.max(1) as f64;
                 return Err(CoreError::InvalidConfig {
                     key: "trainer.shadow.max_scale".into(),
                     reason: format!(
-                        "in the first cycle agent `{}`'s shadow rewards average {:.3} per step against {:.3} for \
-                         the task (ratio {:.2} > {max}): lower trainer.shadow.alpha (now {}) or raise \
-                         trainer.shadow.max_scale",
+                        "in the first cycle's {where_} agent `{}`'s shadow rewards average {:.3} per step \
+                         against {:.3} for the task (ratio {:.2} > {max}): lower trainer.shadow.alpha (now {}) \
+                         or raise trainer.shadow.max_scale",
                         names.get(i).map_or("?", |a| a.name.as_str()),
                         shadow / steps,
                         task / steps,
@@ -384,11 +399,13 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
     /// The statistics of a finished epoch.
     fn epoch_stats(&self, tally: &EpochTally, eval: EvalSummary, seconds: f64, env_steps: u64) -> EpochStats {
         let per = |v: &[f64], n: usize| v.iter().map(|x| x / n.max(1) as f64).collect();
+        let batch = |v: &[f64]| if tally.reports_batches { per(v, tally.loss_cycles) } else { Vec::new() };
         EpochStats {
             epoch: self.state.epoch,
             success_rate: eval.success_rate,
             train_success_rate: tally.successes as f64 / tally.episodes.max(1) as f64,
             drop_rate: eval.drop_rate,
+            held_success_rate: eval.held_success_rate,
             eval_feature_rates: eval.feature_rates,
             train_feature_rates: per(&tally.features, tally.steps),
             returns: per(&tally.returns, tally.episodes),
@@ -397,6 +414,9 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
             occupancy: self.occupancy().to_vec(),
             critic_loss: per(&tally.critic_loss, tally.loss_cycles),
             actor_loss: per(&tally.actor_loss, tally.loss_cycles),
+            batch_task_reward_abs: batch(&tally.batch_task_abs),
+            batch_shadow_reward_abs: batch(&tally.batch_shadow_abs),
+            q_mean: batch(&tally.q_mean),
             env_steps: self.collector.env_steps() * self.comm.workers() as u64,
             updates: self.state.updates,
             env_steps_per_sec: (env_steps * self.comm.workers() as u64) as f64
@@ -418,10 +438,10 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
         let steps_before = self.collector.env_steps();
         for cycle in 0..self.config.cycles {
             self.collect(&mut tally)?;
+            self.update(&mut tally)?;
             if self.state.epoch == 0 && cycle == 0 {
                 self.check_shadow_scale(&tally)?;
             }
-            self.update(&mut tally)?;
         }
         self.state.updates += tally.updates;
         tally.reduce(self.comm.as_ref());

@@ -20,6 +20,11 @@ pub struct EpochStats {
     pub train_success_rate: f64,
     /// Fraction of evaluation episodes that ended with the object dropped.
     pub drop_rate: f64,
+    /// Fraction of evaluation episodes that succeeded under the test's rule,
+    /// turned and held: within the training threshold at the last step and
+    /// never dropped (absent in metrics written before 2026-11-27).
+    #[serde(default)]
+    pub held_success_rate: f64,
     /// Mean per-step value of each feature over the evaluation episodes.
     pub eval_feature_rates: Vec<f64>,
     /// Mean per-step value of each feature over the training rollouts.
@@ -40,6 +45,18 @@ pub struct EpochStats {
     /// (what `trainer.shadow.max_scale` bounds relative to the task's).
     #[serde(default)]
     pub shadow_reward_abs: Vec<f64>,
+    /// Each agent's mean `|task part|` of the rewards in this epoch's sampled
+    /// batches, HER's relabelled goals included: the task reward as the
+    /// critics learn it (empty when the algorithm does not say, and in
+    /// metrics written before 2026-11-27).
+    #[serde(default)]
+    pub batch_task_reward_abs: Vec<f64>,
+    /// Each agent's mean `|shadow part|` of the same rewards.
+    #[serde(default)]
+    pub batch_shadow_reward_abs: Vec<f64>,
+    /// Each agent's mean `Q_i(x, g, a)` of its online critic over this epoch's batches.
+    #[serde(default)]
+    pub q_mean: Vec<f64>,
     /// Environment steps so far.
     pub env_steps: u64,
     /// Updates so far.
@@ -61,6 +78,8 @@ pub struct EvalSummary {
     pub success_rate: f64,
     /// Fraction that ended with the object dropped.
     pub drop_rate: f64,
+    /// Fraction that succeeded and were never dropped (the test's rule, [`crate::metrics::classify`]).
+    pub held_success_rate: f64,
     /// Mean per-step value of each feature.
     pub feature_rates: Vec<f64>,
     /// Final goal distance of each episode.
@@ -79,7 +98,12 @@ pub(super) struct EpochTally {
     pub(super) steps: usize,
     pub(super) critic_loss: Vec<f64>,
     pub(super) actor_loss: Vec<f64>,
+    pub(super) batch_task_abs: Vec<f64>,
+    pub(super) batch_shadow_abs: Vec<f64>,
+    pub(super) q_mean: Vec<f64>,
     pub(super) loss_cycles: usize,
+    /// Whether the algorithm reported its batches' reward parts and Q.
+    pub(super) reports_batches: bool,
     pub(super) updates: u64,
     pub(super) update_seconds: f64,
 }
@@ -93,6 +117,9 @@ impl EpochTally {
             features: vec![0.0; features],
             critic_loss: vec![0.0; agents],
             actor_loss: vec![0.0; agents],
+            batch_task_abs: vec![0.0; agents],
+            batch_shadow_abs: vec![0.0; agents],
+            q_mean: vec![0.0; agents],
             ..Self::default()
         }
     }
@@ -117,6 +144,10 @@ impl EpochTally {
         self.loss_cycles += 1;
         self.critic_loss.iter_mut().zip(&stats.critic_loss).for_each(|(a, v)| *a += v);
         self.actor_loss.iter_mut().zip(&stats.actor_loss).for_each(|(a, v)| *a += v);
+        self.batch_task_abs.iter_mut().zip(&stats.batch_task_reward_abs).for_each(|(a, v)| *a += v);
+        self.batch_shadow_abs.iter_mut().zip(&stats.batch_shadow_reward_abs).for_each(|(a, v)| *a += v);
+        self.q_mean.iter_mut().zip(&stats.q_mean).for_each(|(a, v)| *a += v);
+        self.reports_batches |= !stats.q_mean.is_empty();
     }
 
     /// With several workers: the epoch's sums over all of them (losses: the
@@ -134,6 +165,9 @@ impl EpochTally {
             &self.features,
             &self.critic_loss,
             &self.actor_loss,
+            &self.batch_task_abs,
+            &self.batch_shadow_abs,
+            &self.q_mean,
             &counts,
         ]
         .concat()
@@ -150,6 +184,9 @@ impl EpochTally {
             (&mut self.features, w),
             (&mut self.critic_loss, 1.0),
             (&mut self.actor_loss, 1.0),
+            (&mut self.batch_task_abs, 1.0),
+            (&mut self.batch_shadow_abs, 1.0),
+            (&mut self.q_mean, 1.0),
         ] {
             field.iter_mut().zip(it.by_ref()).for_each(|(x, m)| *x = m * scale);
         }

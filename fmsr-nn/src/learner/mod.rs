@@ -64,7 +64,37 @@ pub(crate) struct Learner {
     pub(crate) rng: ChaCha8Rng,
     /// Gradient steps taken.
     pub(crate) steps: u64,
+    /// What the update cycle's batches held, for the epoch's statistics.
+    pub(crate) diagnostics: Diagnostics,
     pools: Vec<rayon::ThreadPool>,
+}
+
+/// Sums over an update cycle's sampled batches: each agent's reward parts
+/// and its critic's mean Q (not saved: a cycle starts and ends in one call).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Diagnostics {
+    /// Sum over sampled rows of each agent's `|task part|`.
+    pub(crate) task_abs: Vec<f64>,
+    /// Sum over sampled rows of each agent's `|shadow part|`.
+    pub(crate) shadow_abs: Vec<f64>,
+    /// Rows sampled.
+    pub(crate) rows: u64,
+    /// Sum over critic steps of each agent's batch-mean Q.
+    pub(crate) q_sum: Vec<f64>,
+    /// Critic steps.
+    pub(crate) q_steps: u64,
+}
+
+impl Diagnostics {
+    /// The means, into `stats`, and a fresh start.
+    pub(crate) fn take_into(&mut self, stats: &mut fmsr_core::algorithm::UpdateStats) {
+        let rows = self.rows.max(1) as f64;
+        let q_steps = self.q_steps.max(1) as f64;
+        stats.batch_task_reward_abs = self.task_abs.iter().map(|v| v / rows).collect();
+        stats.batch_shadow_reward_abs = self.shadow_abs.iter().map(|v| v / rows).collect();
+        stats.q_mean = self.q_sum.iter().map(|v| v / q_steps).collect();
+        *self = Self::default();
+    }
 }
 
 impl std::fmt::Debug for Learner {
@@ -255,6 +285,7 @@ impl Learner {
             replay,
             rng,
             steps: 0,
+            diagnostics: Diagnostics::default(),
             pools,
         })
     }

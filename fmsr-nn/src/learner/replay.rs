@@ -49,6 +49,10 @@ impl Learner {
         if self.replay.episodes() == 0 {
             return Ok(None);
         }
+        // Each row's reward parts, for the epoch's statistics: the shadow part
+        // is the agent's reward with a zero task reward, the task part the rest.
+        let na = self.num_agents();
+        let parts = std::cell::RefCell::new((vec![0.0f64; na], vec![0.0f64; na], vec![0.0f32; na], 0u64));
         let b = self
             .replay
             .sample(
@@ -58,9 +62,25 @@ impl Learner {
                 &self.layout,
                 &mut self.rng,
                 &|a, d| rewards.goal_reward(a, d),
-                &|task, phi, out| rewards.agent_rewards(task, phi, out),
+                &|task, phi, out| {
+                    rewards.agent_rewards(task, phi, out);
+                    let (task_abs, shadow_abs, shadow, rows) = &mut *parts.borrow_mut();
+                    rewards.agent_rewards(0.0, phi, shadow);
+                    for i in 0..out.len().min(na) {
+                        task_abs[i] += f64::from((out[i] - shadow[i]).abs());
+                        shadow_abs[i] += f64::from(shadow[i].abs());
+                    }
+                    *rows += 1;
+                },
             )
             .map_err(|e| NnError::Replay { reason: e.to_string() })?;
+        let (task_abs, shadow_abs, _, rows) = parts.into_inner();
+        let d = &mut self.diagnostics;
+        d.task_abs.resize(na, 0.0);
+        d.shadow_abs.resize(na, 0.0);
+        d.task_abs.iter_mut().zip(&task_abs).for_each(|(a, v)| *a += v);
+        d.shadow_abs.iter_mut().zip(&shadow_abs).for_each(|(a, v)| *a += v);
+        d.rows += rows;
         let bounds = rewards.reward_bounds();
         if bounds.len() != self.num_agents() {
             return Err(NnError::Dimension {

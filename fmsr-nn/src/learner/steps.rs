@@ -69,7 +69,9 @@ impl Learner {
         let next_input = Tensor::cat(vec![b.og_next.clone(), next_actions], 1).unsqueeze_dim::<3>(0);
         let input = Tensor::from_inner(Tensor::cat(vec![b.og.clone(), b.actions.clone()], 1).unsqueeze_dim::<3>(0));
         let gamma = self.gamma as f32;
-        self.step_groups(NetworkKind::Critics, |g, group| {
+        // Each group's batch-mean Q of its first critic, for the epoch's statistics.
+        let q_means = std::sync::Mutex::new(Vec::with_capacity(self.groups.len()));
+        let losses = self.step_groups(NetworkKind::Critics, |g, group| {
             let (gb, na) = (&b.groups[g], group.len());
             let mut q_next = group.nets.critic_targets.nets.iter().map(|c| c.forward(next_input.clone()));
             let first = q_next.next().ok_or(NnError::Backend { what: "critic target", reason: "no critic".into() })?;
@@ -84,14 +86,30 @@ impl Learner {
             let y = Tensor::from_inner(y);
             let mut loss: Option<Tensor<3>> = None;
             for c in &group.nets.critics.nets {
-                let l = (c.forward(input.clone()) - y.clone()).square().mean_dim(1);
+                let q = c.forward(input.clone());
+                if loss.is_none() {
+                    let mean: Tensor<1> = Tensor::from_inner(q.clone().inner().mean_dim(1).reshape([na]));
+                    q_means.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push((g, mean));
+                }
+                let l = (q - y.clone()).square().mean_dim(1);
                 loss = Some(match loss {
                     Some(acc) => acc + l,
                     None => l,
                 });
             }
             Ok(loss.ok_or(NnError::Backend { what: "critic loss", reason: "no critic".into() })?.reshape([na]))
-        })
+        })?;
+        let mut q_means = q_means.into_inner().unwrap_or_else(std::sync::PoisonError::into_inner);
+        q_means.sort_by_key(|(g, _)| *g);
+        let mut q = Vec::with_capacity(losses.len());
+        for (_, mean) in q_means {
+            q.extend(crate::group::to_vec1(mean, "critic mean Q")?);
+        }
+        let d = &mut self.diagnostics;
+        d.q_sum.resize(q.len(), 0.0);
+        d.q_sum.iter_mut().zip(&q).for_each(|(a, v)| *a += f64::from(*v));
+        d.q_steps += 1;
+        Ok(losses)
     }
 
     /// One optimiser step of every agent's actor on the losses `[A_g]` that
