@@ -32,6 +32,9 @@ enum Command {
     Eval(EvalArgs),
     /// Write a trained run's policy alone (actors, normalisers, config, commit, evaluations) into one file.
     Export(ExportArgs),
+    /// Write a run's rescue point: its training state without the replay buffer, to restart it
+    /// (`fmsr train --rescue`) when its checkpoint is lost.
+    Rescue(RescueArgs),
     /// Write the paper's tables and figures over several runs (Tables I and II, Figs. 3 and 4).
     Report(ReportArgs),
     /// Draw one test episode of a trained run's or policy file's policy as an animated GIF (or PNG frames), headless.
@@ -82,6 +85,16 @@ struct TrainArgs {
     /// Continue the run in the run directory from its last checkpoint.
     #[arg(long)]
     resume: bool,
+    /// Restart the run in --out, whose checkpoint was lost, from this rescue
+    /// point (`fmsr rescue`), with the run's config.toml in --out: the replay
+    /// buffer is lost and refilled (--refill) before the next update; the
+    /// restart goes into the run's restarts.jsonl.
+    #[arg(long, conflicts_with = "resume", requires = "out")]
+    rescue: Option<PathBuf>,
+    /// With --rescue: exploring episodes collected into the empty replay
+    /// buffer before the next update (default: one epoch's, cycles x episodes per cycle).
+    #[arg(long, requires = "rescue")]
+    refill: Option<usize>,
     /// No progress bar or per-epoch lines.
     #[arg(long)]
     quiet: bool,
@@ -143,6 +156,37 @@ struct ExportArgs {
     /// The policy file to write (default `RUN/policy.fmsr`).
     #[arg(long)]
     out: Option<PathBuf>,
+}
+
+#[derive(Debug, clap::Args)]
+struct RescueArgs {
+    /// The run directory (its last checkpoint).
+    run: PathBuf,
+    /// The file to write (default `RUN/rescue.fmsr`).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// What to keep of the learner: `online` (the online networks; targets restored as
+    /// them, Adam's moments fresh; about a quarter of a checkpoint), `targets`, or `full`
+    /// (everything but the replay buffer).
+    #[arg(long, value_enum, default_value = "online")]
+    keep: KeepArg,
+}
+
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+enum KeepArg {
+    Online,
+    Targets,
+    Full,
+}
+
+impl From<KeepArg> for fmsr_nn::RescueLevel {
+    fn from(k: KeepArg) -> Self {
+        match k {
+            KeepArg::Online => Self::Online,
+            KeepArg::Targets => Self::Targets,
+            KeepArg::Full => Self::Full,
+        }
+    }
 }
 
 #[derive(Debug, clap::Args)]
@@ -237,6 +281,23 @@ fn main() -> Result<()> {
         Command::Train(args) => train(&args).map(|_| ()),
         Command::Eval(args) => eval(&args),
         Command::Export(args) => export(&args),
+        Command::Rescue(args) => {
+            let dir = RunDir::new(&args.run);
+            let point = fmsr::run::rescue_point(&dir, args.keep.into())
+                .with_context(|| format!("the rescue point of {}", dir.root().display()))?;
+            let out = args.out.clone().unwrap_or_else(|| dir.root().join("rescue.fmsr"));
+            point.write(&out)?;
+            let bytes = std::fs::metadata(&out).map_or(0, |m| m.len());
+            println!(
+                "wrote {} ({:.1} MB: epoch {}, {} env steps, keeps {})",
+                out.display(),
+                bytes as f64 / 1e6,
+                point.epoch,
+                point.env_steps,
+                point.keeps
+            );
+            Ok(())
+        }
         Command::Report(args) => report(&args.runs, &args.out),
         Command::Render(args) => {
             for file in render(&args)? {
@@ -269,6 +330,8 @@ fn main() -> Result<()> {
                 device: None,
                 epochs: None,
                 resume: RunDir::new(&out).checkpoint().exists(),
+                rescue: None,
+                refill: None,
                 out: Some(out),
                 quiet: args.quiet,
             };
@@ -300,7 +363,7 @@ fn main() -> Result<()> {
 
 fn resolve_config(args: &TrainArgs) -> Result<(ExperimentConfig, RunDir, bool)> {
     let default_dir = |config: &ExperimentConfig| PathBuf::from("runs").join(&config.name);
-    let resume = args.resume;
+    let resume = args.resume || args.rescue.is_some();
     let (mut config, dir) = if resume {
         // A resumed run keeps its own configuration; --config only names it when --out is absent.
         let dir = match &args.out {
@@ -450,7 +513,20 @@ fn train_with(args: &TrainArgs, comm: Arc<dyn Communicator>) -> Result<RunDir> {
         .map(|_| config.env_config().init_engine(config.engine))
         .collect::<Result<Vec<_>, _>>()
         .with_context(|| format!("building the {} Shadow Hand", config.engine.key()))?;
-    run::train_worker(&config, envs, &dir, resume, comm.clone(), on_epoch)?;
+    let rescue = args.rescue.as_deref().map(fmsr::core::trainer::RescuePoint::read).transpose()?;
+    let start = match &rescue {
+        Some(point) => {
+            let refill = args.refill.unwrap_or(config.trainer.cycles * config.trainer.episodes_per_cycle);
+            eprintln!(
+                "restarting from the rescue point of epoch {} (keeps {}): {} episodes of replay lost, {refill} collected first",
+                point.epoch, point.keeps, point.stored_episodes
+            );
+            run::Start::Rescue { point, refill }
+        }
+        None if resume => run::Start::Resume,
+        None => run::Start::New,
+    };
+    run::train_from(&config, envs, &dir, start, comm.clone(), on_epoch)?;
     progress.finish();
     Ok(dir)
 }

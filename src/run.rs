@@ -6,6 +6,7 @@ use std::path::Path;
 
 use fmsr_core::persist::write_atomic;
 use fmsr_core::prelude::*;
+use fmsr_core::trainer::{RescuePoint, Restart};
 
 use crate::artefacts::RunDir;
 use crate::experiment::{ExperimentConfig, ExperimentError};
@@ -35,8 +36,41 @@ pub fn train_worker<E: Env + Send>(
     dir: &RunDir,
     resume: bool,
     comm: std::sync::Arc<dyn Communicator>,
+    on_epoch: impl FnMut(&EpochStats),
+) -> Result<Trainer<E, fmsr_nn::AnyLearner>, ExperimentError> {
+    let start = if resume { Start::Resume } else { Start::New };
+    train_from(config, envs, dir, start, comm, on_epoch)
+}
+
+/// How a run directory's training starts.
+#[derive(Debug, Clone, Copy)]
+pub enum Start<'a> {
+    /// A new run (refused where a checkpoint exists).
+    New,
+    /// The run's last checkpoint, with its replay log: exactly as if never stopped.
+    Resume,
+    /// A run whose checkpoint was lost, from a rescue point
+    /// ([`fmsr_core::trainer::RescuePoint`]), with `refill` exploring episodes
+    /// collected into the empty replay buffer first. Refused where a
+    /// checkpoint exists. The restart is appended to `restarts.jsonl`.
+    Rescue {
+        /// The rescue point.
+        point: &'a RescuePoint,
+        /// Episodes collected before the next update.
+        refill: usize,
+    },
+}
+
+/// As [`train_worker`], starting as `start` says.
+pub fn train_from<E: Env + Send>(
+    config: &ExperimentConfig,
+    envs: Vec<E>,
+    dir: &RunDir,
+    start: Start<'_>,
+    comm: std::sync::Arc<dyn Communicator>,
     mut on_epoch: impl FnMut(&EpochStats),
 ) -> Result<Trainer<E, fmsr_nn::AnyLearner>, ExperimentError> {
+    let resume = !matches!(start, Start::New);
     let writes = comm.rank() == 0;
     // Built first: a config that only the env or the learner can check fails
     // before the run directory exists.
@@ -45,17 +79,28 @@ pub fn train_worker<E: Env + Send>(
     // shared files) holds the lock for the whole run, from before it reads
     // the checkpoint.
     let _lock = if writes { Some(dir.lock()?) } else { None };
-    if resume {
-        trainer.load_checkpoint(&dir.checkpoint())?;
-    } else if dir.checkpoint().exists() {
-        return Err(ExperimentError::Config {
-            key: "out".into(),
-            reason: format!("{} already holds a run: pass --resume or choose another --out", dir.root().display()),
-        });
+    match start {
+        Start::Resume => trainer.load_checkpoint(&dir.checkpoint())?,
+        Start::New | Start::Rescue { .. } if dir.checkpoint().exists() => {
+            return Err(ExperimentError::Config {
+                key: "out".into(),
+                reason: format!(
+                    "{} already holds a run with a checkpoint: pass --resume or choose another --out",
+                    dir.root().display()
+                ),
+            });
+        }
+        Start::New => {}
+        Start::Rescue { point, refill } => {
+            let restart = trainer.restore_rescue(point, refill)?;
+            if writes {
+                record_restart(dir, &restart)?;
+            }
+        }
     }
     let mut events = None;
     if writes {
-        if !resume {
+        if !resume || !dir.provenance().exists() {
             let provenance = Provenance::of_this_process(Path::new("."));
             let json = serde_json::to_vec_pretty(&provenance)
                 .map_err(|e| ExperimentError::Encode { what: "provenance.json", reason: e.to_string() })?;
@@ -77,6 +122,39 @@ pub fn train_worker<E: Env + Send>(
         Ok(())
     })?;
     Ok(trainer)
+}
+
+/// The rescue point of the run in `dir` (its last checkpoint), its learner
+/// state thinned to `level` ([`fmsr_nn::rescue_state`]); see
+/// [`fmsr_core::trainer::RescuePoint`] for the format.
+///
+/// # Errors
+/// The checkpoint's errors ([`RescuePoint::from_checkpoint`]), a learner
+/// state that is not of this build.
+pub fn rescue_point(dir: &RunDir, level: fmsr_nn::RescueLevel) -> Result<RescuePoint, ExperimentError> {
+    let mut point = RescuePoint::from_checkpoint(&dir.checkpoint(), level.key())?;
+    point.algorithm = fmsr_nn::rescue_state(&point.algorithm, level)?;
+    Ok(point)
+}
+
+/// Appends a restart from a rescue point to the run's `restarts.jsonl`, with
+/// the provenance of the binary that restarted it.
+fn record_restart(dir: &RunDir, restart: &Restart) -> Result<(), ExperimentError> {
+    let path = dir.root().join("restarts.jsonl");
+    let mut text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
+        Err(source) => return Err(ExperimentError::Io { path, source }),
+    };
+    let line = serde_json::json!({
+        "restart": restart,
+        "lost": format!("the replay buffer ({} episodes); the rescue point kept `{}`", restart.lost_episodes, restart.keeps),
+        "binary": Provenance::of_this_process(Path::new(".")),
+    });
+    text.push_str(&line.to_string());
+    text.push('\n');
+    write_atomic(&path, text.as_bytes())?;
+    Ok(())
 }
 
 /// Whether this process was started by an MPI launcher (`mpirun`, `srun`) as

@@ -79,6 +79,17 @@ pub trait Algorithm: Policy {
     /// bytes is left as it is.
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), Self::Error>;
 
+    /// Restores the algorithm's part of a rescue point
+    /// ([`crate::trainer::RescuePoint`]): a state written by
+    /// [`Algorithm::save_state`] without storage, which the algorithm's own
+    /// tools may have thinned (fmsr-nn's `rescue_state` drops target networks
+    /// and optimiser moments, which this restores as the online networks and
+    /// fresh moments). By default, [`Algorithm::load_state`]: an algorithm
+    /// that does not thin its states reads its rescue points as whole states.
+    fn load_rescue_state(&mut self, bytes: &[u8]) -> Result<(), Self::Error> {
+        self.load_state(bytes)
+    }
+
     /// How many of the most recently stored episodes the storage can still
     /// sample from (a replay buffer's capacity in episodes; 0 for storage that is
     /// emptied by every update). The trainer's replay log keeps that many on disk.

@@ -111,6 +111,10 @@ impl Algorithm for AnyLearner {
         each!(self, l => l.load_state(bytes))
     }
 
+    fn load_rescue_state(&mut self, bytes: &[u8]) -> Result<(), NnError> {
+        each!(self, l => l.load_rescue_state(bytes))
+    }
+
     fn storage_capacity(&self) -> usize {
         each!(self, l => l.storage_capacity())
     }

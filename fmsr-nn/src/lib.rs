@@ -102,7 +102,7 @@ pub use matd3::{Matd3, Matd3Rule};
 pub use net::{Critics, NetShape, StackLayout, StackedLinear, StackedMlp, StackedMlpConfig};
 pub use normalizer::Normalizer;
 pub use off_policy::{OffPolicy, StepLosses};
-pub use state::policy_from_learner_state;
+pub use state::{RescueLevel, policy_from_learner_state, rescue_state};
 
 /// Everything needed for typical use: `use fmsr_nn::prelude::*;`.
 pub mod prelude {

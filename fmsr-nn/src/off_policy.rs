@@ -270,8 +270,29 @@ impl<R: UpdateRule> Algorithm for OffPolicy<R> {
     }
 
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), NnError> {
+        self.load_learner(bytes, false)
+    }
+
+    fn load_rescue_state(&mut self, bytes: &[u8]) -> Result<(), NnError> {
+        self.load_learner(bytes, true)
+    }
+
+    fn storage_capacity(&self) -> usize {
+        self.learner.storage_capacity()
+    }
+
+    fn restore_storage(&mut self, total: u64, episodes: &[Episode]) -> Result<(), NnError> {
+        self.learner.restore_storage(total, episodes)
+    }
+}
+
+#[allow(private_bounds)]
+impl<R: UpdateRule> OffPolicy<R> {
+    /// [`Algorithm::load_state`], or with `thinned` a rescue state whose
+    /// targets and optimiser moments may be absent ([`crate::rescue_state`]).
+    fn load_learner(&mut self, bytes: &[u8], thinned: bool) -> Result<(), NnError> {
         let (rule, agents) = (&self.rule, self.learner.num_agents());
-        let state = self.learner.load(R::NAME, bytes, |saved| {
+        let state = self.learner.load(R::NAME, bytes, thinned, |saved| {
             let state = match saved {
                 SavedRule::Typed(bytes) => postcard::from_bytes(&bytes)
                     .map_err(|e| NnError::CorruptState { offset: 0, reason: format!("{} state: {e}", R::NAME) })?,
@@ -282,14 +303,6 @@ impl<R: UpdateRule> Algorithm for OffPolicy<R> {
         })?;
         self.rule.restore(state);
         Ok(())
-    }
-
-    fn storage_capacity(&self) -> usize {
-        self.learner.storage_capacity()
-    }
-
-    fn restore_storage(&mut self, total: u64, episodes: &[Episode]) -> Result<(), NnError> {
-        self.learner.restore_storage(total, episodes)
     }
 }
 

@@ -29,14 +29,22 @@ struct CheckpointFile {
 }
 
 #[derive(Serialize, Deserialize)]
-struct CheckpointMeta<O> {
-    config: TrainerConfig,
-    state: TrainerState,
-    occupancy: O,
-    env_steps: u64,
+pub(super) struct CheckpointMeta<O> {
+    pub(super) config: TrainerConfig,
+    pub(super) state: TrainerState,
+    pub(super) occupancy: O,
+    pub(super) env_steps: u64,
     /// Worker processes of the run, and which one this file belongs to.
-    workers: usize,
-    rank: usize,
+    pub(super) workers: usize,
+    pub(super) rank: usize,
+}
+
+/// A checkpoint file's two parts: the trainer's (JSON) and the algorithm's bytes.
+pub(super) fn read_checkpoint_parts(path: &Path) -> Result<(String, Vec<u8>), CoreError> {
+    let corrupt = |reason: String| CoreError::Corrupt { path: path.into(), reason };
+    let bytes = std::fs::read(path).map_err(|source| CoreError::Io { path: path.into(), source })?;
+    let file: CheckpointFile = persist::decode(&FORMAT, &bytes).map_err(|e| corrupt(e.to_string()))?;
+    Ok((file.meta, file.algorithm))
 }
 
 /// What a checkpoint holds for a reader that does not train: how far the run
@@ -241,7 +249,10 @@ where
         self.apply_checkpoint(meta, &algorithm)?;
         let (from, to) = (self.window_start(), self.state.stored_episodes);
         let episodes = ReplayLog::read(&worker_replay_dir(path, rank), from, to)?;
-        self.algorithm.restore_storage(to, &episodes).map_err(algo_err)
+        // After a restart from a rescue point the storage was refilled from
+        // empty at the replay floor: it holds what a fresh one would after
+        // `to - floor` episodes.
+        self.algorithm.restore_storage(to - self.state.replay_floor, &episodes).map_err(algo_err)
     }
 
     /// As [`Trainer::load_checkpoint`] but leaves the algorithm's storage as it
@@ -259,9 +270,17 @@ where
     /// configuration) and algorithm bytes.
     fn read_checkpoint(&self, path: &Path) -> Result<(CheckpointMeta<O>, Vec<u8>), CoreError> {
         let corrupt = |reason: String| CoreError::Corrupt { path: path.into(), reason };
-        let bytes = std::fs::read(path).map_err(|source| CoreError::Io { path: path.into(), source })?;
-        let file: CheckpointFile = persist::decode(&FORMAT, &bytes).map_err(|e| corrupt(e.to_string()))?;
-        let meta: CheckpointMeta<O> = serde_json::from_str(&file.meta).map_err(|e| corrupt(e.to_string()))?;
+        let (meta, algorithm) = read_checkpoint_parts(path)?;
+        let meta: CheckpointMeta<O> = serde_json::from_str(&meta).map_err(|e| corrupt(e.to_string()))?;
+        self.check_meta(&meta, path)?;
+        Ok((meta, algorithm))
+    }
+
+    /// Checks a checkpoint's (or rescue point's) trainer part against this
+    /// trainer: the same configuration but `epochs`, `threads` and `envs`, the
+    /// same features.
+    pub(super) fn check_meta(&self, meta: &CheckpointMeta<O>, path: &Path) -> Result<(), CoreError> {
+        let corrupt = |reason: String| CoreError::Corrupt { path: path.into(), reason };
         let mut expected = self.config.clone();
         expected.epochs = meta.config.epochs;
         // Threads do not change the history; envs only batch the remaining
@@ -277,7 +296,7 @@ where
         if meta.occupancy.estimate().len() != self.env().spec().features.len() {
             return Err(corrupt("occupancy has a different number of features".into()));
         }
-        Ok((meta, file.algorithm))
+        Ok(())
     }
 
     fn apply_checkpoint(&mut self, meta: CheckpointMeta<O>, algorithm: &[u8]) -> Result<(), CoreError> {
@@ -291,6 +310,7 @@ where
 
     /// The store index of the oldest episode the algorithm's storage still holds.
     fn window_start(&self) -> u64 {
-        self.state.stored_episodes.saturating_sub(self.algorithm.storage_capacity() as u64)
+        let window = self.state.stored_episodes.saturating_sub(self.algorithm.storage_capacity() as u64);
+        window.max(self.state.replay_floor)
     }
 }

@@ -15,6 +15,7 @@
 
 mod checkpoint;
 mod config;
+mod rescue;
 mod stats;
 
 use std::sync::Arc;
@@ -26,6 +27,7 @@ use serde::{Deserialize, Serialize};
 
 pub use self::checkpoint::{CheckpointContents, read_checkpoint_contents};
 pub use self::config::TrainerConfig;
+pub use self::rescue::{RescuePoint, Restart};
 pub use self::stats::{EpochStats, EvalSummary};
 use self::stats::{EpochTally, accumulate_features};
 use crate::agent::{Communicator, ObservationLayout, SingleProcess};
@@ -49,6 +51,14 @@ struct TrainerState {
     history: Vec<EpochStats>,
     /// Episodes handed to [`Algorithm::store`] so far.
     stored_episodes: u64,
+    /// Store index of the first episode the algorithm's storage can hold:
+    /// those before it were lost at a restart from a rescue point (0 for a
+    /// run never restarted so, and in checkpoints written before 2026-11-27).
+    #[serde(default)]
+    replay_floor: u64,
+    /// Each restart from a rescue point, in order.
+    #[serde(default)]
+    restarts: Vec<Restart>,
 }
 
 /// The training loop; see the [module docs](self).
@@ -142,6 +152,8 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
             updates: 0,
             history: Vec::new(),
             stored_episodes: 0,
+            replay_floor: 0,
+            restarts: Vec::new(),
         };
         Ok(Self {
             config,
@@ -228,6 +240,12 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
     #[must_use]
     pub fn history(&self) -> &[EpochStats] {
         &self.state.history
+    }
+
+    /// The run's restarts from rescue points, in order ([`Trainer::restore_rescue`]).
+    #[must_use]
+    pub fn restarts(&self) -> &[Restart] {
+        &self.state.restarts
     }
 
     /// Epochs finished so far.
