@@ -92,7 +92,7 @@ fn train_eval_report_and_resume() {
     assert_eq!(eval["trace"]["q_msv"].as_array().unwrap().len(), 100);
     // The chance level of the test set travels with the evaluation (issue 11, item 5).
     assert_eq!(eval["records"].as_array().unwrap().len(), 2);
-    assert!(text(&out).contains("for a policy that holds the object still"), "{}", text(&out));
+    assert!(text(&out).contains("for a hand that holds still (the same episodes simulated"), "{}", text(&out));
 
     let report = tmp.path().join("report");
     let out = fmsr(&["report", run_s, "--out", report.to_str().unwrap()]);

@@ -88,7 +88,9 @@ impl Learner {
             for c in &group.nets.critics.nets {
                 let q = c.forward(input.clone());
                 if loss.is_none() {
-                    let mean: Tensor<1> = Tensor::from_inner(q.clone().inner().mean_dim(1).reshape([na]));
+                    // A shared critic's Q is one row for all agents: each agent's is that.
+                    let mean = q.clone().inner().mean_dim(1).expand([na, 1, 1]).reshape([na]);
+                    let mean: Tensor<1> = Tensor::from_inner(mean);
                     q_means.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push((g, mean));
                 }
                 let l = (q - y.clone()).square().mean_dim(1);
