@@ -3,7 +3,7 @@
 # across sessions that each end every process, in a home outside the work tree.
 #
 #   scripts/long_runs.sh start CONFIG...   copy the release binary, start each run
-#   scripts/long_runs.sh resume            restart every unfinished run (first thing every session)
+#   scripts/long_runs.sh resume            restart every unfinished run, from its rescue point where the home lost it (first thing every session)
 #   scripts/long_runs.sh status            epochs, env steps, success, s/epoch, sessions left, alive, next snapshot
 #   scripts/long_runs.sh record            evaluate new snapshots, copy small files into docs/
 #   scripts/long_runs.sh finish            once every run has ended: issue 37's item 4 (below)
@@ -56,6 +56,23 @@
 # home): FMSR_LONG_RUNS_RECORDS, FMSR_LONG_RUNS_PRETRAINED,
 # FMSR_LONG_RUNS_RESULTS, FMSR_LONG_RUNS_TRIALS.
 #
+# Rescue points (issue 53). `record` also writes each run's rescue point,
+# `fmsr rescue RUN --keep $FMSR_LONG_RUNS_KEEP` (default `online`: the online
+# networks, normalisers, RNG, counters and occupancy, no replay, about 8 MB for
+# the paper's networks), into docs/results/paper_budget/<run>/rescue/
+# (rescue.fmsr, rescue.env: EPOCH, KEEP, WRITTEN), with restarts.jsonl, and
+# copies the snapshot best on the validation episodes so far to
+# pretrained/<run>_paper/best_so_far.fmsr (best_so_far.env: EPOCH), so a
+# policy and the state to go on from are in the repository whatever happens
+# to the home. `resume` restores every recorded run that the home lacks and
+# that has a rescue point: a new home entry with the run's config and
+# keeper.env, this work tree's release build as its binary (BIN_NOTE says so:
+# the rescue point's format is checked by its reader), and the rescue point,
+# from which the driver restarts (`fmsr train --rescue`) before it goes on as
+# ever; the restart goes into the run's restarts.jsonl, the section and the
+# curves. Snapshots lost with a home count as taken when the records hold
+# their evaluations.
+#
 # `lost` is for a session that finds the home gone (a machine not kept from
 # the session before: every checkpoint, replay buffer, snapshot policy and the
 # binary with it). It refuses for any run the home still holds; for the others
@@ -72,6 +89,8 @@ records=${FMSR_LONG_RUNS_RECORDS:-$repo/docs/results/paper_budget}
 pretrained=${FMSR_LONG_RUNS_PRETRAINED:-$repo/pretrained}
 results=${FMSR_LONG_RUNS_RESULTS:-$repo/docs/results.md}
 trials=${FMSR_LONG_RUNS_TRIALS:-500}
+# What a rescue point keeps (`fmsr rescue --keep`): online, targets or full.
+keep=${FMSR_LONG_RUNS_KEEP:-online}
 # Epochs (from 0) after which the policy is exported.
 snapshot_epochs=(0 9 24 49 99 149 199 249 299 349 399)
 # Seconds of training one session gives a run (a session lasts 180 minutes).
@@ -93,10 +112,12 @@ alive() { ! flock -n "$1/keeper.lock" true 2>/dev/null; }
 planned() { (source "$1/keeper.env"; echo "$EPOCHS"); }
 
 finished() {
-  local dir=$1 k
+  local dir=$1 k name
+  name=$(basename "$dir")
   [ "$(epochs_done "$dir")" -ge "$(planned "$dir")" ] || return 1
   for k in "${snapshot_epochs[@]}"; do
-    [ "$k" -ge "$(planned "$dir")" ] || [ -f "$dir/snapshots/epoch-$(printf %03d "$k").fmsr" ] || return 1
+    [ "$k" -ge "$(planned "$dir")" ] || [ -f "$dir/snapshots/epoch-$(printf %03d "$k").fmsr" ] \
+      || [ -f "$records/$name/snapshots/epoch-$(printf %03d "$k").test.json" ] || return 1
   done
 }
 
@@ -117,6 +138,8 @@ drive() {
   # shellcheck disable=SC1091
   source "$dir/keeper.env"
   export RAYON_NUM_THREADS=1
+  # A MuJoCo run's binary finds libmujoco in the home (copied by start or resume).
+  export LD_LIBRARY_PATH=$home/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
   log "driver $$ on $(basename "$dir") with $BIN"
   local k target trained snap
   for k in "${snapshot_epochs[@]}"; do
@@ -124,7 +147,12 @@ drive() {
     [ "$target" -le "$EPOCHS" ] || break
     trained=$(epochs_done "$dir")
     if [ "$trained" -lt "$target" ]; then
-      if [ ! -f "$dir/run/checkpoint.bin" ]; then
+      if [ ! -f "$dir/run/checkpoint.bin" ] && [ -f "$dir/rescue.fmsr" ]; then
+        # A run restored from its rescue point (`resume` after a lost home):
+        # restart from it, then the rescue point has served.
+        "$BIN" train --rescue "$dir/rescue.fmsr" --out "$dir/run" --epochs "$target" \
+          && mv "$dir/rescue.fmsr" "$dir/rescue.used.fmsr"
+      elif [ ! -f "$dir/run/checkpoint.bin" ]; then
         # Nothing to resume (a first epoch that never ended): start afresh, in
         # the checkout it was started from so provenance.json names the commit.
         rm -rf "$dir/run"
@@ -193,14 +221,8 @@ start() {
   [ $# -ge 1 ] || die "usage: $0 start CONFIG..."
   cd "$repo"
   git diff --quiet HEAD -- || die "tracked files differ from HEAD: commit first, so the binary is named by the code it was built from"
-  cargo build --release --bin fmsr
-  local commit bin
-  commit=$(git rev-parse --short=10 HEAD)
-  bin=$home/bin/fmsr-$commit
-  mkdir -p "$home/bin"
-  if [ ! -x "$bin" ]; then
-    cp target/release/fmsr "$bin.tmp" && mv "$bin.tmp" "$bin"
-  fi
+  local bin
+  bin=$(home_binary "$@")
   local config name dir epochs
   for config in "$@"; do
     [ -f "$config" ] || die "no config $config"
@@ -226,6 +248,51 @@ EOF
 
 runs() { for d in "$home"/*/; do [ -f "$d/keeper.env" ] && echo "${d%/}"; done; }
 
+# Builds this work tree's release binary (with MuJoCo when a config $@ asks for
+# it, libmujoco then copied to $home/lib), copies it to $home/bin named by the
+# commit, and prints its path.
+home_binary() {
+  cd "$repo"
+  local features=() bin
+  if grep -qs '^engine *= *"mujoco"' "$@"; then
+    scripts/setup_mujoco.sh >&2
+    features=(--features mujoco)
+    mkdir -p "$home/lib"
+    cp -a target/mujoco/lib/. "$home/lib/"
+  fi
+  cargo build --release "${features[@]}" --bin fmsr >&2
+  bin=$home/bin/fmsr-$(git rev-parse --short=10 HEAD)${features:+-mujoco}
+  mkdir -p "$home/bin"
+  if [ ! -x "$bin" ]; then
+    cp target/release/fmsr "$bin.tmp" && mv "$bin.tmp" "$bin"
+  fi
+  echo "$bin"
+}
+
+# Restores recorded run $1 (its records' directory) into the home from its
+# rescue point, with this work tree's build; the driver restarts from it.
+restore_from_rescue() {
+  local out=$1 name dir bin
+  name=$(basename "$out")
+  dir=$home/$name
+  mkdir -p "$dir/run"
+  cp "$out/config.toml" "$dir/config.toml"
+  cp "$out/config.toml" "$dir/run/config.toml"
+  if [ -f "$out/provenance.json" ]; then cp "$out/provenance.json" "$dir/run/provenance.json"; fi
+  if [ -f "$out/restarts.jsonl" ]; then cp "$out/restarts.jsonl" "$dir/run/restarts.jsonl"; fi
+  cp "$out/rescue/rescue.fmsr" "$dir/rescue.fmsr"
+  bin=$(home_binary "$dir/config.toml")
+  # Today's snapshots of the run are gone with the home; the best so far is in pretrained/.
+  # keeper.env as recorded (COMMIT, STARTED: the run's), with today's binary.
+  {
+    grep -v -e '^BIN=' -e '^BIN_NOTE=' "$out/keeper.env"
+    echo "BIN=$bin"
+    echo "BIN_NOTE=\"restored $(date -u +%FT%TZ) from the rescue point of epoch $(sed -n 's/^EPOCH=//p' "$out/rescue/rescue.env") with the build of $(git -C "$repo" rev-parse --short=10 HEAD), not the run's own commit\""
+  } > "$dir/keeper.env.tmp"
+  mv "$dir/keeper.env.tmp" "$dir/keeper.env"
+  echo "$name: restored from its rescue point ($(tr '\n' ' ' < "$out/rescue/rescue.env"))"
+}
+
 # The runs' records in docs/ (each holds its keeper.env), as `runs` lists the home's.
 recorded() { for d in "$records"/*/; do if [ -f "$d/keeper.env" ]; then echo "${d%/}"; fi; done; }
 
@@ -238,6 +305,15 @@ unaccounted() {
 }
 
 resume() {
+  local out restored=0
+  for out in $(recorded); do
+    [ ! -f "$home/$(basename "$out")/keeper.env" ] && [ -f "$out/rescue/rescue.fmsr" ] || continue
+    [ ! -f "$out/final/test-rapier.json" ] || continue
+    restore_from_rescue "$out"
+    rm -f "$out/lost.env"
+    restored=1
+  done
+  [ "$restored" = 0 ] || echo "(restored runs restart from their rescue points; \`$0 record\` commits where they stand)"
   if [ ! -d "$home" ]; then
     echo "no long-run home at $home (nothing to resume)"
     local missing
@@ -273,12 +349,14 @@ status() {
     trained=$(epochs_done "$dir")
     total=$(planned "$dir")
     if [ "$trained" -gt 0 ]; then
-      # epoch,success_rate,train_success_rate,drop_rate,env_steps,...,seconds (9th)
+      # The columns by name: their places moved when metrics.csv gained some (2026-11-27).
       local last med
+      col() { head -n 1 "$csv" | tr ',' '\n' | grep -nx "$1" | cut -d: -f1; }
       last=$(tail -n 1 "$csv")
-      med=$(tail -n +2 "$csv" | tail -n 10 | cut -d, -f9 | sort -g | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }')
+      med=$(tail -n +2 "$csv" | tail -n 10 | cut -d, -f"$(col seconds)" | sort -g | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }')
       printf '%-20s %4d/%-4d %10s %6.3f %6.3f %8.0f %13.1f %-7s %s\n' "$(basename "$dir")" "$trained" "$total" \
-        "$(echo "$last" | cut -d, -f5)" "$(echo "$last" | cut -d, -f3)" "$(echo "$last" | cut -d, -f2)" "$med" \
+        "$(echo "$last" | cut -d, -f"$(col env_steps)")" "$(echo "$last" | cut -d, -f"$(col train_success_rate)")" \
+        "$(echo "$last" | cut -d, -f"$(col success_rate)")" "$med" \
         "$(awk -v n=$((total - trained)) -v s="$med" -v t=$session_seconds 'BEGIN { print n * s / t }')" \
         "$(alive "$dir" && echo alive || echo stopped)" "$(next_snapshot "$trained" "$total" "$med")"
     else
@@ -293,7 +371,10 @@ status() {
 # evaluations off as the new run's: move it to docs/results/paper_budget_lost/.
 archive_earlier_record() {
   local dir=$1 out=$2 was
-  [ -f "$out/keeper.env" ] && ! cmp -s "$out/keeper.env" "$dir/keeper.env" || return 0
+  # The same run keeps its STARTED (a run restored from its rescue point has
+  # another binary, so keeper.env differs in BIN alone).
+  started() { sed -n 's/^STARTED=//p' "$1"; }
+  [ -f "$out/keeper.env" ] && [ "$(started "$out/keeper.env")" != "$(started "$dir/keeper.env")" ] || return 0
   was=$(sed -n 's/^STARTED=//p' "$out/keeper.env" | tr -d ':')
   mkdir -p "${records}_lost"
   mv "$out" "${records}_lost/$(basename "$out")-$was"
@@ -314,6 +395,7 @@ evaluate_snapshots() {
       [ -f "$dir/run/$f" ] && cp "$dir/run/$f" "$out/$f"
     done
     cp "$dir/keeper.env" "$out/keeper.env"
+    if [ -f "$dir/run/restarts.jsonl" ]; then cp "$dir/run/restarts.jsonl" "$out/restarts.jsonl"; fi
     # The home holds the run: whatever an earlier `lost` said, it is not lost.
     rm -f "$out/lost.env"
     for snap in "$dir"/snapshots/epoch-*.fmsr; do
@@ -333,6 +415,38 @@ evaluate_snapshots() {
   done
 }
 
+# Each run's rescue point (from its last checkpoint) and its best policy on
+# the validation episodes so far, into the records and pretrained/.
+rescue_and_best() {
+  local fmsr=$repo/target/release/fmsr dir name out epoch best pre snap
+  for dir in $(runs); do
+    name=$(basename "$dir")
+    out=$records/$name
+    epoch=$(epochs_done "$dir")
+    if [ "$epoch" -gt 0 ] && [ "$(sed -n 's/^EPOCH=//p' "$out/rescue/rescue.env" 2> /dev/null)" != "$epoch" ]; then
+      mkdir -p "$out/rescue"
+      nice -n 5 "$fmsr" rescue "$dir/run" --keep "$keep" --out "$out/rescue/rescue.fmsr.tmp" > "$out/rescue/rescue.log" \
+        || die "$name: fmsr rescue failed: $(cat "$out/rescue/rescue.log")"
+      # The file names the epoch of the checkpoint it read: it must be the one counted.
+      grep -q "epoch $epoch," "$out/rescue/rescue.log" || die "$name: the rescue point is not of epoch $epoch"
+      mv "$out/rescue/rescue.fmsr.tmp" "$out/rescue/rescue.fmsr"
+      printf 'EPOCH=%s\nKEEP=%s\nWRITTEN=%s\n' "$epoch" "$keep" "$(date -u +%FT%TZ)" > "$out/rescue/rescue.env"
+      echo "$name: rescue point of epoch $epoch ($(du -h "$out/rescue/rescue.fmsr" | cut -f1))"
+    fi
+    best=$(python3 "$repo/scripts/long_runs_final.py" best "$out" 2> /dev/null || true)
+    pre=$pretrained/${name}_paper
+    snap=$dir/snapshots/epoch-$(printf %03d "${best:-0}").fmsr
+    if [ -n "$best" ] && [ -f "$snap" ] && [ "$(sed -n 's/^EPOCH=//p' "$pre/best_so_far.env" 2> /dev/null)" != "$best" ]; then
+      mkdir -p "$pre"
+      cp "$snap" "$pre/best_so_far.fmsr.tmp"
+      mv "$pre/best_so_far.fmsr.tmp" "$pre/best_so_far.fmsr"
+      printf 'EPOCH=%s\nCHOSEN=%s\n' "$best" "\"best on the validation episodes among the snapshots recorded so far\"" \
+        > "$pre/best_so_far.env"
+      echo "$name: best on validation so far, epoch $best, in $pre/best_so_far.fmsr"
+    fi
+  done
+}
+
 write_section() {
   python3 "$repo/scripts/long_runs_record.py" --home "$home" --results "$results" \
     --records "$records" --pretrained "$pretrained" --commit "$(git -C "$repo" rev-parse --short HEAD)"
@@ -342,6 +456,7 @@ record() {
   [ -d "$home" ] || die "no long-run home at $home (if it was lost, \`$0 lost\` records that and rewrites the section)"
   cd "$repo"
   evaluate_snapshots
+  rescue_and_best
   write_section
 }
 
@@ -401,7 +516,14 @@ finish_run() {
   best=$(python3 "$repo/scripts/long_runs_final.py" best "$records/$name")
   last=$(($(planned "$dir") - 1))
   if [ "$best" != "$last" ]; then
-    carry_evaluations "$dir/snapshots/epoch-$(printf %03d "$best").fmsr" "$pre/best_on_validation.fmsr"
+    local snap=$dir/snapshots/epoch-$(printf %03d "$best").fmsr
+    # A snapshot lost with a home (the run was restored from its rescue point)
+    # is in pretrained/ when it was the best so far.
+    if [ ! -f "$snap" ] && [ "$(sed -n 's/^EPOCH=//p' "$pre/best_so_far.env" 2> /dev/null)" = "$best" ]; then
+      snap=$pre/best_so_far.fmsr
+    fi
+    [ -f "$snap" ] || die "$name: the snapshot of epoch $best, best on validation, is neither in the home nor in $pre"
+    carry_evaluations "$snap" "$pre/best_on_validation.fmsr"
   fi
   [ -f "$pre/render/episode-0-rapier.gif" ] || nice -n 5 "$fmsr" render "$pre"
   python3 "$repo/scripts/long_runs_final.py" readme "$records/$name" "$pre" --commit "$(git rev-parse --short HEAD)"
@@ -440,7 +562,8 @@ lost() {
   for out in $(recorded); do
     name=$(basename "$out")
     [ -f "$home/$name/keeper.env" ] || continue
-    cmp -s "$home/$name/keeper.env" "$out/keeper.env" && die "the home holds $name ($home/$name): it is not lost"
+    [ "$(sed -n 's/^STARTED=//p' "$home/$name/keeper.env")" = "$(sed -n 's/^STARTED=//p' "$out/keeper.env")" ] \
+      && die "the home holds $name ($home/$name): it is not lost"
     die "the home holds a later run $name than the one recorded: \`$0 record\` moves the earlier record aside"
   done
   for out in $(recorded); do

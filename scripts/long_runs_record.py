@@ -108,6 +108,7 @@ def svg_curves(runs, path):
     w, h, left, bottom, top, right = 760, 360, 50, 40, 20, 170
     total = max([r["planned"] for r in runs] + [1])
     x = lambda e: left + (w - left - right) * e / max(total, 1)
+    x_ = x
     y = lambda v: top + (h - top - bottom) * (1 - v)
     colors = {"Dense+FMSR+IS": "#1f77b4", "Dense": "#e6ab02"}
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">',
@@ -124,6 +125,12 @@ def svg_curves(runs, path):
             pts_ = " ".join(f"{x(int(m['epoch']) + 1):.1f},{y(float(m[key])):.1f}" for m in r["metrics"])
             if pts_:
                 out.append(f'<polyline fill="none" stroke="{c}" stroke-width="1.2" stroke-dasharray="{dash}" points="{pts_}"/>')
+        for x in r.get("restarts", []):
+            e = x.get("restart", {}).get("epoch")
+            if e is not None:
+                out.append(f'<line x1="{x_(e):.1f}" x2="{x_(e):.1f}" y1="{y(0):.1f}" y2="{y(1):.1f}" stroke="{c}" '
+                           'stroke-dasharray="2 4"/>')
+                out.append(f'<text x="{x_(e) + 3:.1f}" y="{y(1) + 12 + 12 * i:.1f}" fill="{c}" font-size="10">restart</text>')
         for epoch, ev in r["snapshots"]:
             if ev["test"]:
                 p, lo, hi = ev["test"]["interval"]
@@ -165,9 +172,31 @@ def load_run(records, home, name):
         "metrics": metrics,
         "snapshots": snaps,
         "alive": alive(home, name),
+        # Restarts from the run's rescue point (`fmsr train --rescue`), as restarts.jsonl records them.
+        "restarts": read_restarts(d / "restarts.jsonl"),
         # When the keeper found the home gone (`long_runs.sh lost`), else None.
         "lost": keeper_env(d / "lost.env").get("FOUND") if (d / "lost.env").exists() else None,
     }
+
+
+def read_restarts(path):
+    """The restarts of a run from its rescue points: one JSON object a line, none without the file."""
+    if not path.exists():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def restarts_note(r):
+    """A sentence per restart of run `r` from its rescue point: when, what it kept and lost, which binary."""
+    out = []
+    for x in r.get("restarts", []):
+        re_, binary = x.get("restart", {}), x.get("binary", {})
+        out.append(
+            f" Restarted at epoch {re_.get('epoch', '?')} from its rescue point (kept `{re_.get('keeps', '?')}`; "
+            f"lost {x.get('lost', 'the replay buffer')}; {re_.get('refill_episodes', '?')} episodes collected before "
+            f"the next update) by the binary of commit `{str(binary.get('commit') or '?')[:10]}`."
+        )
+    return "".join(out)
 
 
 def load_lost(lost_dir):
@@ -282,7 +311,7 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
         lines.append(
             f"- `{r['name']}`: started {e.get('STARTED', '?')} with the binary of commit `{e.get('COMMIT', '?')[:10]}` "
             f"(`{Path(e.get('BIN', '?')).name}`, kept for the whole run); config and metrics in "
-            f"[`{records_rel}/{r['name']}/`]({records_rel}/{r['name']}/)."
+            f"[`{records_rel}/{r['name']}/`]({records_rel}/{r['name']}/)." + restarts_note(r)
         )
     lines += ["", "```sh", "scripts/long_runs.sh start configs/egg_dense_fmsr_is.toml configs/egg_dense.toml  # once",
               "scripts/long_runs.sh resume   # first thing every session", "scripts/long_runs.sh status",

@@ -3,7 +3,8 @@
 # two tiny egg runs (Dense+FMSR+IS and Dense, 2 epochs of 2 episodes) are
 # started, must both end with their snapshot, `resume` must leave them alone,
 # a driver must wait for a lock held an instant (and train a third epoch),
-# `lost` must mark them only once their home is gone,
+# `lost` must mark them only once their home is gone, `resume` must restore
+# them from their rescue points when it is,
 # `finish` must refuse while a run is unfinished and then write every final
 # evaluation, policy, README, report and the section with the paper's rows.
 # Nothing of the real home, docs/ or pretrained/ is touched.
@@ -116,6 +117,32 @@ mv "$scratch/home.kept" "$FMSR_LONG_RUNS"
 "$keeper" record
 [ ! -e "$FMSR_LONG_RUNS_RECORDS/egg_dense/lost.env" ] || fail "record left the mark on a run the home holds"
 grep -q "Lost before" "$scratch/results.md" && fail "the section still says the runs were lost"
+
+# A home lost for good (issue 53): `record` wrote each run's rescue point and
+# its best policy so far; with the home gone, `resume` restores both runs from
+# their rescue points (this tree's build), the drivers restart from them, and
+# the restart is in the run's restarts.jsonl, the records and the section.
+for run in egg_dense_fmsr_is egg_dense; do
+  [ -s "$FMSR_LONG_RUNS_RECORDS/$run/rescue/rescue.fmsr" ] || fail "$run: record wrote no rescue point"
+  grep -q '^KEEP=online$' "$FMSR_LONG_RUNS_RECORDS/$run/rescue/rescue.env" || fail "$run: no rescue.env"
+  [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/best_so_far.fmsr" ] || fail "$run: record kept no best policy so far"
+done
+mv "$FMSR_LONG_RUNS" "$scratch/home.lost"
+"$keeper" resume > "$scratch/resumed"
+[ "$(grep -c "restored from its rescue point" "$scratch/resumed")" = 2 ] || fail "resume did not restore both runs: $(cat "$scratch/resumed")"
+for _ in $(seq 120); do
+  "$keeper" status > "$scratch/status"
+  grep -q alive "$scratch/status" || break
+  sleep 1
+done
+for run in egg_dense_fmsr_is egg_dense; do
+  grep -q '"refill_episodes"' "$FMSR_LONG_RUNS/$run/run/restarts.jsonl" || fail "$run: no restart recorded ($(tail -n 5 "$FMSR_LONG_RUNS/$run/keeper.log"))"
+  [ -f "$FMSR_LONG_RUNS/$run/run/checkpoint.bin" ] || fail "$run: the restarted run has no checkpoint"
+  grep -q '^BIN_NOTE=' "$FMSR_LONG_RUNS/$run/keeper.env" || fail "$run: keeper.env does not say which binary restored it"
+done
+"$keeper" record
+grep -q "Restarted at epoch 2 from its rescue point (kept \`online\`" "$scratch/results.md" || fail "the section does not show the restart"
+[ -f "$FMSR_LONG_RUNS_RECORDS/egg_dense_fmsr_is/restarts.jsonl" ] || fail "record did not copy the restarts"
 
 "$keeper" finish
 for run in egg_dense_fmsr_is egg_dense; do

@@ -96,6 +96,9 @@ pub fn train_from<E: Env + Send>(
             if writes {
                 record_restart(dir, &restart)?;
             }
+            // The restarted run has a checkpoint at once (with the refilled
+            // replay), even when no epoch is left to train: it is a run again.
+            trainer.save_checkpoint(&dir.checkpoint())?;
         }
     }
     let mut events = None;
