@@ -103,6 +103,9 @@ mv "$FMSR_LONG_RUNS/egg_dense" "$scratch/egg_dense.kept"
 "$keeper" lost 2> "$scratch/refused" && fail "lost ran while the home holds egg_dense_fmsr_is"
 [ ! -e "$FMSR_LONG_RUNS_RECORDS/egg_dense/lost.env" ] || fail "lost marked egg_dense before it refused"
 mv "$scratch/egg_dense.kept" "$FMSR_LONG_RUNS/egg_dense"
+# Records without rescue points (runs recorded before 2026-11-27): `resume`
+# cannot restore them and points at `lost`. (`record` writes them again below.)
+for run in egg_dense_fmsr_is egg_dense; do rm -r "$FMSR_LONG_RUNS_RECORDS/$run/rescue"; done
 mv "$FMSR_LONG_RUNS" "$scratch/home.kept"
 "$keeper" resume > "$scratch/resumed"
 grep -q "not in the home: egg_dense egg_dense_fmsr_is; if the home was lost" "$scratch/resumed" || fail "resume did not point at lost: $(cat "$scratch/resumed")"
