@@ -108,7 +108,6 @@ def svg_curves(runs, path):
     w, h, left, bottom, top, right = 760, 360, 50, 40, 20, 170
     total = max([r["planned"] for r in runs] + [1])
     x = lambda e: left + (w - left - right) * e / max(total, 1)
-    x_ = x
     y = lambda v: top + (h - top - bottom) * (1 - v)
     colors = {"Dense+FMSR+IS": "#1f77b4", "Dense": "#e6ab02"}
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">',
@@ -125,12 +124,12 @@ def svg_curves(runs, path):
             pts_ = " ".join(f"{x(int(m['epoch']) + 1):.1f},{y(float(m[key])):.1f}" for m in r["metrics"])
             if pts_:
                 out.append(f'<polyline fill="none" stroke="{c}" stroke-width="1.2" stroke-dasharray="{dash}" points="{pts_}"/>')
-        for x in r.get("restarts", []):
-            e = x.get("restart", {}).get("epoch")
+        for restart in r.get("restarts", []):
+            e = restart.get("restart", {}).get("epoch")
             if e is not None:
-                out.append(f'<line x1="{x_(e):.1f}" x2="{x_(e):.1f}" y1="{y(0):.1f}" y2="{y(1):.1f}" stroke="{c}" '
+                out.append(f'<line x1="{x(e):.1f}" x2="{x(e):.1f}" y1="{y(0):.1f}" y2="{y(1):.1f}" stroke="{c}" '
                            'stroke-dasharray="2 4"/>')
-                out.append(f'<text x="{x_(e) + 3:.1f}" y="{y(1) + 12 + 12 * i:.1f}" fill="{c}" font-size="10">restart</text>')
+                out.append(f'<text x="{x(e) + 3:.1f}" y="{y(1) + 12 + 12 * i:.1f}" fill="{c}" font-size="10">restart</text>')
         for epoch, ev in r["snapshots"]:
             if ev["test"]:
                 p, lo, hi = ev["test"]["interval"]
