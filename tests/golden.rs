@@ -12,12 +12,23 @@
 //!
 //! The numbers are bit patterns of one CPU's arithmetic: burn's and faer's
 //! kernels choose their SIMD paths at run time. The file holds one recording
-//! per set of instruction sets, each made at a commit before the redesign
-//! (its `commit`); a CPU compares against the recording of its own sets, and
-//! on a CPU without one the test says so and compares nothing. To record this
-//! CPU's (beside the others; only on code whose numbers are the reference, or
-//! when numbers are meant to change, and the commit says why):
-//! `FMSR_GOLDEN=record FMSR_GOLDEN_COMMIT=<commit> cargo test --workspace --test golden`.
+//! per set of instruction sets (its `commit`: the code that made it); a CPU
+//! compares against the recording of its own sets, and **on a CPU without one
+//! the test fails**, saying how to record. CI records one for its own CPU in a
+//! step of its own that says so in its output (`FMSR_GOLDEN=record-if-missing`:
+//! records only where the file has none for this CPU), before the tests. To
+//! record this CPU's (beside the others; only on code whose numbers are the
+//! reference, or when numbers are meant to change, in a commit of its own that
+//! says why): `FMSR_GOLDEN=record FMSR_GOLDEN_COMMIT=<commit> cargo test --test golden`.
+//!
+//! Besides the epochs and the greedy episode, each trace holds CRC-32Cs of the
+//! final parameters (every agent's online actor and critic) and of the saved
+//! policy state (actors and normalisers). The whole learner state is not
+//! hashed: its optimiser records (burn's burnpack) do not serialise the same
+//! bytes twice (two saves of one learner measured 486 652 and 487 152 bytes,
+//! 2026-11-27), though they restore the same moments. A recording made again
+//! keeps, in `equivalent_to`, the earlier recordings whose every value it
+//! repeats, so that the chain of equivalence is in the data.
 //!
 //! The runs train the task of the recordings: the yaw goal distance and at
 //! least 10 active sensors for `contacts` (`env.goal_distance = "yaw"`,
@@ -60,6 +71,13 @@ struct Trace {
     observations_crc: u32,
     /// Its first joint action, to read a difference by eye.
     first_action: Vec<f32>,
+    /// CRC-32C of the final parameters: every agent's online actor, then its
+    /// (first) critic, little-endian (absent in recordings before 2026-11-27).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    params_crc: Option<u32>,
+    /// CRC-32C of the saved policy state (`PolicyState::save_policy`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    policy_crc: Option<u32>,
 }
 
 /// One CPU's recording.
@@ -69,7 +87,20 @@ struct Recording {
     cpu: String,
     /// The commit whose code recorded them.
     commit: String,
+    /// Earlier recordings of this CPU whose every value this one repeats
+    /// (what was compared, in words), newest first.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    equivalent_to: Vec<Equivalence>,
     traces: Vec<Trace>,
+}
+
+/// An earlier recording that a later one repeats.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct Equivalence {
+    /// The earlier recording's commit.
+    commit: String,
+    /// What was compared.
+    checked: String,
 }
 
 /// The file: one recording per set of instruction sets.
@@ -136,6 +167,14 @@ fn trace(algorithm: &str, sharing: &str) -> Trace {
             serde_json::to_value(s).unwrap()
         })
         .collect();
+    let learner = trainer.algorithm();
+    let params: Vec<f32> = (0..learner.num_agents())
+        .flat_map(|i| {
+            let (actor, critic) = learner.params(i).unwrap();
+            actor.into_iter().chain(critic)
+        })
+        .collect();
+    let policy_crc = crc32c::crc32c(&learner.save_policy().unwrap());
     let episode = trainer.rollout(EPISODE_SEED, ActMode::Evaluate).unwrap();
     let observations = episode.observations.iter().flat_map(|o| {
         let parts = o.locals.iter().chain([&o.global, &o.achieved_goal, &o.desired_goal]);
@@ -148,6 +187,8 @@ fn trace(algorithm: &str, sharing: &str) -> Trace {
         actions_crc: crc(episode.actions.iter().flat_map(|a| a.0.iter().copied())),
         observations_crc: crc(observations),
         first_action: episode.actions[0].0.clone(),
+        params_crc: Some(crc(params.into_iter())),
+        policy_crc: Some(policy_crc),
     }
 }
 
@@ -166,18 +207,29 @@ fn traces() -> Vec<Trace> {
 fn every_algorithm_repeats_its_recorded_run_bit_for_bit() {
     let cpu = cpu();
     let mut golden: Golden = serde_json::from_slice(&std::fs::read(GOLDEN).unwrap()).unwrap();
-    if std::env::var("FMSR_GOLDEN").as_deref() == Ok("record") {
+    let mode = std::env::var("FMSR_GOLDEN").unwrap_or_default();
+    let missing = !golden.recordings.iter().any(|r| r.cpu == cpu);
+    if mode == "record" || (mode == "record-if-missing" && missing) {
         let commit = std::env::var("FMSR_GOLDEN_COMMIT").expect("FMSR_GOLDEN_COMMIT: the commit being recorded");
+        let equivalent_to = golden.recordings.iter().find(|r| r.cpu == cpu).map(|r| r.equivalent_to.clone());
         golden.recordings.retain(|r| r.cpu != cpu);
-        golden.recordings.push(Recording { cpu, commit, traces: traces() });
+        let recording =
+            Recording { cpu: cpu.clone(), commit, equivalent_to: equivalent_to.unwrap_or_default(), traces: traces() };
+        golden.recordings.push(recording);
         std::fs::write(GOLDEN, serde_json::to_string_pretty(&golden).unwrap() + "\n").unwrap();
-        eprintln!("recorded this CPU's traces in {GOLDEN}");
+        eprintln!("golden: RECORDED this CPU's traces (`{cpu}`) in {GOLDEN}; later runs compare against them");
+        return;
+    }
+    if mode == "record-if-missing" {
+        eprintln!("golden: {GOLDEN} has a recording for this CPU (`{cpu}`): nothing recorded");
         return;
     }
     let Some(recording) = golden.recordings.iter().find(|r| r.cpu == cpu) else {
         let known: Vec<&str> = golden.recordings.iter().map(|r| r.cpu.as_str()).collect();
-        eprintln!("{GOLDEN} holds recordings of {known:?}, none of this CPU's `{cpu}`: nothing compared");
-        return;
+        panic!(
+            "{GOLDEN} holds recordings of {known:?}, none of this CPU's `{cpu}`: nothing to compare. Record one at a \
+             commit whose numbers are the reference: FMSR_GOLDEN=record FMSR_GOLDEN_COMMIT=<commit> cargo test --test golden"
+        );
     };
     let now = traces();
     assert_eq!(now.len(), recording.traces.len());
@@ -197,7 +249,19 @@ fn every_algorithm_repeats_its_recorded_run_bit_for_bit() {
                 );
             }
         }
-        let episode = |t: &Trace| Trace { history: Vec::new(), ..t.clone() };
-        assert_eq!(episode(now), episode(then), "{}: the greedy episode differs from the recording", now.run);
+        // The hashes are compared where the recording has them.
+        let episode = |t: &Trace, hashes: bool| Trace {
+            history: Vec::new(),
+            params_crc: t.params_crc.filter(|_| hashes),
+            policy_crc: t.policy_crc.filter(|_| hashes),
+            ..t.clone()
+        };
+        let hashes = then.params_crc.is_some();
+        assert_eq!(
+            episode(now, hashes),
+            episode(then, hashes),
+            "{}: the greedy episode or the final parameters differ from the recording",
+            now.run
+        );
     }
 }

@@ -80,6 +80,14 @@ impl AnyLearner {
     pub fn actor_trunk(&self, agent: usize) -> Result<Vec<f32>, NnError> {
         each!(self, l => l.actor_trunk(agent))
     }
+
+    /// All parameters of agent `agent`'s online actor and (first) critic, flattened.
+    ///
+    /// # Errors
+    /// [`NnError::UnknownAgent`], backend errors.
+    pub fn params(&self, agent: usize) -> Result<(Vec<f32>, Vec<f32>), NnError> {
+        each!(self, l => l.params(agent))
+    }
 }
 
 impl Policy for AnyLearner {
