@@ -43,8 +43,7 @@
 //! value the run used, so changing a default in a later release never changes
 //! a saved run that is resumed or evaluated.
 
-use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
@@ -53,10 +52,11 @@ use fmsr_core::prelude::*;
 use fmsr_core::replay::ReplayConfig;
 use fmsr_core::sharing::SharingConfig;
 use fmsr_envs::shadow_hand::{GoalDistance, ShadowHandConfig};
+
+pub use crate::error::ExperimentError;
 use fmsr_graph::Graph;
 use fmsr_nn::{
-    AlgorithmKind, AnyLearner, CriticSharing, Device, DeviceSpec, LearnerParts, Maddpg, MaddpgConfig, Masac,
-    MasacConfig, Matd3, Matd3Config, NetworkConfig, Teammates,
+    AlgorithmKind, CriticSharing, Device, DeviceSpec, MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, Teammates,
 };
 
 /// The timestep of the Shadow Hand model (s); one env step is `substeps` of them.
@@ -325,98 +325,6 @@ pub fn parse_device(device: &str) -> Result<Device, ExperimentError> {
     device.parse::<DeviceSpec>().and_then(|d| d.device()).map_err(invalid)
 }
 
-/// Errors of experiments and runs.
-#[derive(Debug, thiserror::Error)]
-pub enum ExperimentError {
-    /// A configuration value is wrong.
-    #[error("config: `{key}`: {reason}")]
-    Config {
-        /// The key.
-        key: String,
-        /// What is wrong.
-        reason: String,
-    },
-    /// The TOML could not be parsed (unknown key, wrong type, syntax).
-    #[error("{path}: {message}")]
-    Parse {
-        /// The file.
-        path: PathBuf,
-        /// The parser's message, which names the key and line.
-        message: String,
-    },
-    /// Reading or writing a run file failed.
-    #[error("{path}: {source}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The I/O error.
-        #[source]
-        source: std::io::Error,
-    },
-    /// A value that only the environment can check (agents, features, graph,
-    /// mixing matrix) is wrong.
-    #[error("config: `{key}`: {source}")]
-    Invalid {
-        /// The key.
-        key: &'static str,
-        /// What is wrong.
-        #[source]
-        source: CoreError,
-    },
-    /// Another process is writing the run directory (`fmsr train` holds its lock).
-    #[error(
-        "{dir} is being written by another process ({holder}): one `fmsr train` per run directory; \
-         wait for it to end, or stop it, before training or resuming this run"
-    )]
-    RunLocked {
-        /// The run directory.
-        dir: PathBuf,
-        /// Who holds it, as the holder wrote it into the lock file.
-        holder: String,
-    },
-    /// A directory given as a run or policy holds neither, or no trained run.
-    #[error("{path}: {reason}")]
-    NotARun {
-        /// The directory or file given.
-        path: PathBuf,
-        /// What it lacks.
-        reason: String,
-    },
-    /// A file's contents could not be encoded (JSON, TOML, the policy file's framing).
-    #[error("encoding {what}: {reason}")]
-    Encode {
-        /// The file being written (`eval.json`, `provenance.json`, ...).
-        what: &'static str,
-        /// The encoder's message.
-        reason: String,
-    },
-    /// A report's figure could not be plotted.
-    #[error("plotting {path}: {reason}")]
-    Plot {
-        /// The figure's file.
-        path: PathBuf,
-        /// The plotting library's message.
-        reason: String,
-    },
-    /// A frame or an image file could not be drawn or encoded.
-    #[error("rendering {what}: {reason}")]
-    Render {
-        /// What was being drawn or written.
-        what: String,
-        /// Why it failed.
-        reason: String,
-    },
-    /// A core error (trainer, checkpoint, graph).
-    #[error(transparent)]
-    Core(#[from] CoreError),
-    /// An environment error.
-    #[error(transparent)]
-    Env(#[from] fmsr_envs::EnvError),
-    /// A learner error.
-    #[error(transparent)]
-    Nn(#[from] fmsr_nn::NnError),
-}
-
 impl ExperimentConfig {
     /// Parses a TOML experiment, rejecting unknown keys, wrong types, impossible
     /// values and settings that contradict their owner with a message that
@@ -673,65 +581,6 @@ impl ExperimentConfig {
     #[must_use]
     pub fn masac_config(&self) -> MasacConfig {
         self.masac.clone().unwrap_or_else(MasacConfig::new)
-    }
-
-    /// Builds the learner and the trainer on `env`, checking everything that
-    /// needs the environment (agents, features, graph, mixing matrix).
-    ///
-    /// The task reward is the environment's own: `method` sets it only in the
-    /// Shadow Hand config of [`ExperimentConfig::env_config`]. Environments
-    /// built otherwise must give the reward `method` names
-    /// ([`Method::reward`]), or the run's label names another method than
-    /// the one it trained; the generic [`Env`] does not say which it gives,
-    /// so this is not checked.
-    ///
-    /// # Errors
-    /// [`ExperimentError`] naming the key of the first setting that does not fit `env`.
-    pub fn build_trainer<E: Env + Send>(&self, envs: Vec<E>) -> Result<Trainer<E, AnyLearner>, ExperimentError> {
-        self.build_worker_trainer(envs, Arc::new(SingleProcess))
-    }
-
-    /// As [`ExperimentConfig::build_trainer`], as one of `comm.workers()`
-    /// worker processes of one run (the trainer and the learner share `comm`).
-    pub fn build_worker_trainer<E: Env + Send>(
-        &self,
-        envs: Vec<E>,
-        comm: Arc<dyn Communicator>,
-    ) -> Result<Trainer<E, AnyLearner>, ExperimentError> {
-        let spec = envs
-            .first()
-            .map(|e| e.spec().clone())
-            .ok_or_else(|| ExperimentError::Config { key: "trainer.envs".into(), reason: "no environment".into() })?;
-        let graph = self.graph.build(&spec)?;
-        let layout = ObservationLayout::from_graph(spec.clone(), &graph)
-            .map(|l| l.with_view(self.graph.actor_observation))
-            .map_err(|source| ExperimentError::Invalid { key: "graph.edges", source })?;
-        let trainer_config = self.trainer_config();
-        trainer_config
-            .shadow
-            .agent_rewards(&spec)
-            .map_err(|source| ExperimentError::Invalid { key: "trainer.shadow.assignment", source })?;
-        let sharing = self
-            .sharing_config()
-            .build(&graph)
-            .map_err(|source| ExperimentError::Invalid { key: "sharing.mixing", source })?;
-        let networks = self.networks.clone().with_seed(trainer_config.seed.wrapping_add(self.networks.seed));
-        let parts =
-            LearnerParts::new(layout.clone(), networks, self.replay, trainer_config.gamma_for(spec.episode_len))
-                .with_sharing(sharing)
-                .with_communicator(Box::new(comm.clone()))
-                .with_device(parse_device(&self.device)?);
-        let learner = match self.algorithm {
-            AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, self.maddpg_config())?),
-            AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, self.matd3_config())?),
-            AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, self.masac_config())?),
-        };
-        let mut trainer_config = trainer_config;
-        if envs.len() != trainer_config.worker_envs(comm.workers())? {
-            // fmsr eval runs the test set on one environment.
-            trainer_config.envs = Some(envs.len());
-        }
-        Ok(Trainer::with_envs(trainer_config, envs, learner, layout)?.with_communicator(comm)?)
     }
 }
 

@@ -33,8 +33,10 @@
 #![warn(missing_docs)]
 
 pub mod artefacts;
+pub mod error;
 pub mod evaluate;
 pub mod experiment;
+mod factory;
 mod font;
 #[cfg(feature = "mpi")]
 pub mod mpi;

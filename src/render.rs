@@ -65,7 +65,7 @@ impl EpisodeFilm {
 /// `dir` (its last checkpoint) on `env`, an environment of `engine`.
 ///
 /// # Errors
-/// [`ExperimentError::Config`] when `episode` is not in the test set; errors of
+/// [`ExperimentError::Cli`] when `episode` is not in the test set; errors of
 /// the checkpoint, the environment or the policy.
 pub fn record_episode<P: HandPhysics + Send>(
     config: &ExperimentConfig,
@@ -90,8 +90,8 @@ pub fn record_source_episode<P: HandPhysics + Send>(
     episode: usize,
 ) -> Result<EpisodeFilm, ExperimentError> {
     let seeds = config.eval.seeds();
-    let seed = *seeds.get(episode).ok_or_else(|| ExperimentError::Config {
-        key: "episode".into(),
+    let seed = *seeds.get(episode).ok_or_else(|| ExperimentError::Cli {
+        arg: "--episode",
         reason: format!("episode {episode} is not in the test set of {} episodes (0..{})", seeds.len(), seeds.len()),
     })?;
     let mut trainer = config.build_trainer(vec![env])?;

@@ -82,8 +82,8 @@ pub fn train_from<E: Env + Send>(
     match start {
         Start::Resume => trainer.load_checkpoint(&dir.checkpoint())?,
         Start::New | Start::Rescue { .. } if dir.checkpoint().exists() => {
-            return Err(ExperimentError::Config {
-                key: "out".into(),
+            return Err(ExperimentError::Cli {
+                arg: "--out",
                 reason: format!(
                     "{} already holds a run with a checkpoint: pass --resume or choose another --out",
                     dir.root().display()

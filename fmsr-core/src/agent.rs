@@ -1,6 +1,8 @@
-//! What every learner shares: the actor observation layout, the batch of joint
-//! transitions every agent learns from, information-sharing settings and the
-//! communicator between worker processes.
+//! What every learner shares: what an actor observes ([`ActorView`]) and how
+//! its inputs are laid out ([`ObservationLayout`]), the batch of joint
+//! transitions every agent learns from ([`Batch`]), and the communicator
+//! between worker processes ([`Communicator`], [`SingleProcess`]).
+//! Information sharing has its own module, [`crate::sharing`].
 
 use serde::{Deserialize, Serialize};
 

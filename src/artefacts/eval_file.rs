@@ -12,7 +12,8 @@ use fmsr_core::interval::Interval;
 use fmsr_core::metrics::{EpisodeOutcome, EpisodeSummary, FailureCounts, FailureRow, MeanStd, StabilityRow};
 use fmsr_envs::shadow_hand::GoalDistance;
 
-use crate::experiment::{EpisodeSet, ExperimentError};
+use crate::error::ExperimentError;
+use crate::experiment::EpisodeSet;
 
 /// The per-step series of one test episode (the paper's Fig. 4).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]

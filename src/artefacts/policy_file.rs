@@ -31,7 +31,8 @@ use fmsr_core::trainer::read_checkpoint_contents;
 use super::eval_file::{EvalReport, read_eval};
 use super::render_target::RenderTarget;
 use super::run_dir::RunDir;
-use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError};
+use crate::error::ExperimentError;
+use crate::experiment::{Engine, EpisodeSet, ExperimentConfig};
 use crate::provenance::Provenance;
 use fmsr_envs::shadow_hand::GoalDistance;
 

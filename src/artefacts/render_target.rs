@@ -3,7 +3,8 @@
 use std::path::{Path, PathBuf};
 
 use super::run_dir::RunDir;
-use crate::experiment::{Engine, ExperimentError};
+use crate::error::ExperimentError;
+use crate::experiment::Engine;
 
 /// Where `fmsr render` writes.
 #[derive(Debug, Clone, PartialEq, Eq)]

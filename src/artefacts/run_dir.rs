@@ -21,7 +21,8 @@ use std::path::{Path, PathBuf};
 use fmsr_core::persist::write_atomic;
 use fmsr_core::prelude::*;
 
-use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError};
+use crate::error::ExperimentError;
+use crate::experiment::{Engine, EpisodeSet, ExperimentConfig};
 use crate::provenance::Provenance;
 use fmsr_envs::shadow_hand::GoalDistance;
 

@@ -371,7 +371,7 @@ fn remove_previous_report(out: &Path) -> Result<(), ExperimentError> {
 /// Writes the tables, figures and summary of `runs` into `out`.
 pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, ExperimentError> {
     if runs.is_empty() {
-        return Err(ExperimentError::Config { key: "runs".into(), reason: "no run to report on".into() });
+        return Err(ExperimentError::Cli { arg: "RUNS", reason: "no run to report on".into() });
     }
     crate::font::register_font();
     std::fs::create_dir_all(out).map_err(|source| ExperimentError::Io { path: out.to_path_buf(), source })?;

@@ -13,6 +13,7 @@ use rapier3d_mjcf::{MjcfLoaderOptions, MjcfRobot};
 use super::super::assets::HandAssets;
 use super::super::model::{ACTUATORS, HAND_JOINTS, HandObject, PREFIX, inline_includes};
 use super::contacts::{self, ColliderKey};
+use super::missing;
 use super::tendon::{self, TendonSlack};
 use super::torsion;
 use super::touch::{self, TouchSite};
@@ -47,11 +48,6 @@ pub struct RapierHandModel {
 
 fn name_of(s: &str) -> String {
     format!("{PREFIX}{s}")
-}
-
-/// The error of a name the model lacks.
-pub(super) fn missing(what: &str, name: &str) -> EnvError {
-    EnvError::Model(format!("no {what} named {name}"))
 }
 
 impl RapierHandModel {

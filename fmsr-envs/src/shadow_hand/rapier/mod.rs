@@ -49,6 +49,11 @@ use super::model::NUM_TOUCH;
 use super::physics::HandPhysics;
 use crate::error::EnvError;
 
+/// The error of a name the model lacks (loading the model, finding its touch sites).
+fn missing(what: &str, name: &str) -> EnvError {
+    EnvError::Model(format!("no {what} named {name}"))
+}
+
 /// The rapier3d Shadow Hand scene; see the [module docs](self).
 pub struct RapierHand {
     model: Arc<RapierHandModel>,

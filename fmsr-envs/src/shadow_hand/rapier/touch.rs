@@ -13,7 +13,7 @@ use rapier3d_mjcf::mjcf_rs::Model;
 
 use super::super::model::{TouchSensorSite, touch_sensor_sites};
 use super::RapierHand;
-use super::load::missing;
+use super::missing;
 use crate::error::EnvError;
 
 /// One touch sensor: a box on a body.

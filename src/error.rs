@@ -1,0 +1,106 @@
+//! The error of the `fmsr` crate: [`ExperimentError`], one enum for
+//! experiments, runs, their files and the command line.
+
+use std::path::PathBuf;
+
+use fmsr_core::CoreError;
+
+/// Errors of experiments and runs.
+#[derive(Debug, thiserror::Error)]
+pub enum ExperimentError {
+    /// A command-line argument is wrong or contradicts the run it names.
+    #[error("argument `{arg}`: {reason}")]
+    Cli {
+        /// The argument (`--out`, `--rescue`, ...).
+        arg: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A configuration value is wrong.
+    #[error("config: `{key}`: {reason}")]
+    Config {
+        /// The key.
+        key: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// The TOML could not be parsed (unknown key, wrong type, syntax).
+    #[error("{path}: {message}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message, which names the key and line.
+        message: String,
+    },
+    /// Reading or writing a run file failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A value that only the environment can check (agents, features, graph,
+    /// mixing matrix) is wrong.
+    #[error("config: `{key}`: {source}")]
+    Invalid {
+        /// The key.
+        key: &'static str,
+        /// What is wrong.
+        #[source]
+        source: CoreError,
+    },
+    /// Another process is writing the run directory (`fmsr train` holds its lock).
+    #[error(
+        "{dir} is being written by another process ({holder}): one `fmsr train` per run directory; \
+         wait for it to end, or stop it, before training or resuming this run"
+    )]
+    RunLocked {
+        /// The run directory.
+        dir: PathBuf,
+        /// Who holds it, as the holder wrote it into the lock file.
+        holder: String,
+    },
+    /// A directory given as a run or policy holds neither, or no trained run.
+    #[error("{path}: {reason}")]
+    NotARun {
+        /// The directory or file given.
+        path: PathBuf,
+        /// What it lacks.
+        reason: String,
+    },
+    /// A file's contents could not be encoded (JSON, TOML, the policy file's framing).
+    #[error("encoding {what}: {reason}")]
+    Encode {
+        /// The file being written (`eval.json`, `provenance.json`, ...).
+        what: &'static str,
+        /// The encoder's message.
+        reason: String,
+    },
+    /// A report's figure could not be plotted.
+    #[error("plotting {path}: {reason}")]
+    Plot {
+        /// The figure's file.
+        path: PathBuf,
+        /// The plotting library's message.
+        reason: String,
+    },
+    /// A frame or an image file could not be drawn or encoded.
+    #[error("rendering {what}: {reason}")]
+    Render {
+        /// What was being drawn or written.
+        what: String,
+        /// Why it failed.
+        reason: String,
+    },
+    /// A core error (trainer, checkpoint, graph).
+    #[error(transparent)]
+    Core(#[from] CoreError),
+    /// An environment error.
+    #[error(transparent)]
+    Env(#[from] fmsr_envs::EnvError),
+    /// A learner error.
+    #[error(transparent)]
+    Nn(#[from] fmsr_nn::NnError),
+}

@@ -1,0 +1,72 @@
+//! The factory of an experiment: the learner and the trainer that a
+//! configuration ([`crate::experiment`], the schema) describes, built on the
+//! environments it runs on.
+
+use std::sync::Arc;
+
+use fmsr_core::prelude::*;
+use fmsr_nn::{AlgorithmKind, AnyLearner, LearnerParts, Maddpg, Masac, Matd3};
+
+use crate::error::ExperimentError;
+use crate::experiment::{ExperimentConfig, parse_device};
+
+impl ExperimentConfig {
+    /// Builds the learner and the trainer on `env`, checking everything that
+    /// needs the environment (agents, features, graph, mixing matrix).
+    ///
+    /// The task reward is the environment's own: `method` sets it only in the
+    /// Shadow Hand config of [`ExperimentConfig::env_config`]. Environments
+    /// built otherwise must give the reward `method` names
+    /// ([`Method::reward`]), or the run's label names another method than
+    /// the one it trained; the generic [`Env`] does not say which it gives,
+    /// so this is not checked.
+    ///
+    /// # Errors
+    /// [`ExperimentError`] naming the key of the first setting that does not fit `env`.
+    pub fn build_trainer<E: Env + Send>(&self, envs: Vec<E>) -> Result<Trainer<E, AnyLearner>, ExperimentError> {
+        self.build_worker_trainer(envs, Arc::new(SingleProcess))
+    }
+
+    /// As [`ExperimentConfig::build_trainer`], as one of `comm.workers()`
+    /// worker processes of one run (the trainer and the learner share `comm`).
+    pub fn build_worker_trainer<E: Env + Send>(
+        &self,
+        envs: Vec<E>,
+        comm: Arc<dyn Communicator>,
+    ) -> Result<Trainer<E, AnyLearner>, ExperimentError> {
+        let spec = envs
+            .first()
+            .map(|e| e.spec().clone())
+            .ok_or_else(|| ExperimentError::Config { key: "trainer.envs".into(), reason: "no environment".into() })?;
+        let graph = self.graph.build(&spec)?;
+        let layout = ObservationLayout::from_graph(spec.clone(), &graph)
+            .map(|l| l.with_view(self.graph.actor_observation))
+            .map_err(|source| ExperimentError::Invalid { key: "graph.edges", source })?;
+        let trainer_config = self.trainer_config();
+        trainer_config
+            .shadow
+            .agent_rewards(&spec)
+            .map_err(|source| ExperimentError::Invalid { key: "trainer.shadow.assignment", source })?;
+        let sharing = self
+            .sharing_config()
+            .build(&graph)
+            .map_err(|source| ExperimentError::Invalid { key: "sharing.mixing", source })?;
+        let networks = self.networks.clone().with_seed(trainer_config.seed.wrapping_add(self.networks.seed));
+        let parts =
+            LearnerParts::new(layout.clone(), networks, self.replay, trainer_config.gamma_for(spec.episode_len))
+                .with_sharing(sharing)
+                .with_communicator(Box::new(comm.clone()))
+                .with_device(parse_device(&self.device)?);
+        let learner = match self.algorithm {
+            AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, self.maddpg_config())?),
+            AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, self.matd3_config())?),
+            AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, self.masac_config())?),
+        };
+        let mut trainer_config = trainer_config;
+        if envs.len() != trainer_config.worker_envs(comm.workers())? {
+            // fmsr eval runs the test set on one environment.
+            trainer_config.envs = Some(envs.len());
+        }
+        Ok(Trainer::with_envs(trainer_config, envs, learner, layout)?.with_communicator(comm)?)
+    }
+}
