@@ -59,8 +59,8 @@
 # Rescue points (issue 53). `record` also writes each run's rescue point,
 # `fmsr rescue RUN --keep $FMSR_LONG_RUNS_KEEP` (default `online`: the online
 # networks, normalisers, RNG, counters and occupancy, no replay, about 8 MB for
-# the paper's networks), into docs/results/paper_budget/<run>/rescue/
-# (rescue.fmsr, rescue.env: EPOCH, KEEP, WRITTEN), with restarts.jsonl, and
+# the paper's networks), into pretrained/<run>_paper/rescue/ (rescue.fmsr,
+# rescue.env: EPOCH, KEEP, WRITTEN; restarts.jsonl stays in the records), and
 # copies the snapshot best on the validation episodes so far to
 # pretrained/<run>_paper/best_so_far.fmsr (best_so_far.env: EPOCH), so a
 # policy and the state to go on from are in the repository whatever happens
@@ -269,6 +269,11 @@ home_binary() {
   echo "$bin"
 }
 
+# Where the rescue point of the run recorded in $1 (its records' directory)
+# lies: beside its policies in pretrained/ (tracked files over 2 MiB belong
+# there), not in its records.
+rescue_dir() { echo "$pretrained/$(basename "$1")_paper/rescue"; }
+
 # Restores recorded run $1 (its records' directory) into the home from its
 # rescue point, with this work tree's build; the driver restarts from it.
 restore_from_rescue() {
@@ -280,17 +285,17 @@ restore_from_rescue() {
   cp "$out/config.toml" "$dir/run/config.toml"
   if [ -f "$out/provenance.json" ]; then cp "$out/provenance.json" "$dir/run/provenance.json"; fi
   if [ -f "$out/restarts.jsonl" ]; then cp "$out/restarts.jsonl" "$dir/run/restarts.jsonl"; fi
-  cp "$out/rescue/rescue.fmsr" "$dir/rescue.fmsr"
+  cp "$(rescue_dir "$out")/rescue.fmsr" "$dir/rescue.fmsr"
   bin=$(home_binary "$dir/config.toml")
   # Today's snapshots of the run are gone with the home; the best so far is in pretrained/.
   # keeper.env as recorded (COMMIT, STARTED: the run's), with today's binary.
   {
     grep -v -e '^BIN=' -e '^BIN_NOTE=' "$out/keeper.env"
     echo "BIN=$bin"
-    echo "BIN_NOTE=\"restored $(date -u +%FT%TZ) from the rescue point of epoch $(sed -n 's/^EPOCH=//p' "$out/rescue/rescue.env") with the build of $(git -C "$repo" rev-parse --short=10 HEAD), not the run's own commit\""
+    echo "BIN_NOTE=\"restored $(date -u +%FT%TZ) from the rescue point of epoch $(sed -n 's/^EPOCH=//p' "$(rescue_dir "$out")/rescue.env") with the build of $(git -C "$repo" rev-parse --short=10 HEAD), not the run's own commit\""
   } > "$dir/keeper.env.tmp"
   mv "$dir/keeper.env.tmp" "$dir/keeper.env"
-  echo "$name: restored from its rescue point ($(tr '\n' ' ' < "$out/rescue/rescue.env"))"
+  echo "$name: restored from its rescue point ($(tr '\n' ' ' < "$(rescue_dir "$out")/rescue.env"))"
 }
 
 # The runs' records in docs/ (each holds its keeper.env), as `runs` lists the home's.
@@ -307,7 +312,7 @@ unaccounted() {
 resume() {
   local out restored=0
   for out in $(recorded); do
-    [ ! -f "$home/$(basename "$out")/keeper.env" ] && [ -f "$out/rescue/rescue.fmsr" ] || continue
+    [ ! -f "$home/$(basename "$out")/keeper.env" ] && [ -f "$(rescue_dir "$out")/rescue.fmsr" ] || continue
     [ ! -f "$out/final/test-rapier.json" ] || continue
     restore_from_rescue "$out"
     rm -f "$out/lost.env"
@@ -423,15 +428,15 @@ rescue_and_best() {
     name=$(basename "$dir")
     out=$records/$name
     epoch=$(epochs_done "$dir")
-    if [ "$epoch" -gt 0 ] && [ "$(sed -n 's/^EPOCH=//p' "$out/rescue/rescue.env" 2> /dev/null)" != "$epoch" ]; then
-      mkdir -p "$out/rescue"
-      nice -n 5 "$fmsr" rescue "$dir/run" --keep "$keep" --out "$out/rescue/rescue.fmsr.tmp" > "$out/rescue/rescue.log" \
-        || die "$name: fmsr rescue failed: $(cat "$out/rescue/rescue.log")"
+    if [ "$epoch" -gt 0 ] && [ "$(sed -n 's/^EPOCH=//p' "$(rescue_dir "$out")/rescue.env" 2> /dev/null)" != "$epoch" ]; then
+      mkdir -p "$(rescue_dir "$out")"
+      nice -n 5 "$fmsr" rescue "$dir/run" --keep "$keep" --out "$(rescue_dir "$out")/rescue.fmsr.tmp" > "$(rescue_dir "$out")/rescue.log" \
+        || die "$name: fmsr rescue failed: $(cat "$(rescue_dir "$out")/rescue.log")"
       # The file names the epoch of the checkpoint it read: it must be the one counted.
-      grep -q "epoch $epoch," "$out/rescue/rescue.log" || die "$name: the rescue point is not of epoch $epoch"
-      mv "$out/rescue/rescue.fmsr.tmp" "$out/rescue/rescue.fmsr"
-      printf 'EPOCH=%s\nKEEP=%s\nWRITTEN=%s\n' "$epoch" "$keep" "$(date -u +%FT%TZ)" > "$out/rescue/rescue.env"
-      echo "$name: rescue point of epoch $epoch ($(du -h "$out/rescue/rescue.fmsr" | cut -f1))"
+      grep -q "epoch $epoch," "$(rescue_dir "$out")/rescue.log" || die "$name: the rescue point is not of epoch $epoch"
+      mv "$(rescue_dir "$out")/rescue.fmsr.tmp" "$(rescue_dir "$out")/rescue.fmsr"
+      printf 'EPOCH=%s\nKEEP=%s\nWRITTEN=%s\n' "$epoch" "$keep" "$(date -u +%FT%TZ)" > "$(rescue_dir "$out")/rescue.env"
+      echo "$name: rescue point of epoch $epoch ($(du -h "$(rescue_dir "$out")/rescue.fmsr" | cut -f1))"
     fi
     best=$(python3 "$repo/scripts/long_runs_final.py" best "$out" 2> /dev/null || true)
     pre=$pretrained/${name}_paper
