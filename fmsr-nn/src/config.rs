@@ -137,6 +137,31 @@ impl CriticSharing {
     }
 }
 
+/// What each agent's critic sees, declared by an update rule
+/// ([`crate::UpdateRule::CRITIC_VIEW`]); the learner builds the critics to match.
+///
+/// ```text
+/// global      Q_i(x, g, a_1 .. a_N)                 MADDPG / MAGCLA (the paper's; default)
+/// own         Q_i(o_i, a_i)                         independent learners (IDDPG)
+/// neighbours  Q_i(o_i, a_i, a_j for j in N(i))      a critic over the observation graph
+/// ```
+///
+/// `o_i` is agent `i`'s actor input ([`fmsr_core::agent::ObservationLayout`]:
+/// its observation, the goal, its neighbours' previous actions), normalised as
+/// its actor's; `N(i)` its neighbours in that layout. A critic that does not
+/// see the global input needs a critic per agent ([`CriticSharing::PerAgent`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum CriticView {
+    /// The global observation, the goal and every agent's action.
+    #[default]
+    Global,
+    /// The agent's own actor input and its own action.
+    Own,
+    /// The agent's own actor input, its own action and its neighbours' actions.
+    Neighbours,
+}
+
 /// How the agents' networks are grouped into stacked modules
 /// ([`crate::StackedMlp`]): every group's layers are `[agents of the group,
 /// in, out]` tensors, one batched matmul per layer and group.

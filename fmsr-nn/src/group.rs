@@ -145,17 +145,99 @@ impl Joint {
         mu.matmul(self.select.clone()).sum_dim(0).reshape([n, width])
     }
 
-    /// Every agent's critic input `[A, n, obs + goal + action_dim]` on the
+    /// Every agent's global critic input `[A, n, obs + goal + action_dim]` on the
     /// autodiff device: `[x, g]` and the sampled joint action with agent `i`'s
     /// block replaced by its `mu_i` (`mu: [A, n, d_max]`, with gradient).
-    pub(crate) fn with_own(&self, mu: Tensor<3>, og: &Tensor<2>, actions: &Tensor<2>) -> Tensor<3> {
+    fn with_own(&self, mu: Tensor<3>, og: &Tensor<2>, actions: &Tensor<2>) -> Tensor<3> {
         let [a, n, _] = mu.dims();
         let ogd = og.dims()[1];
-        let sampled = Tensor::from_inner(actions.clone().unsqueeze_dim::<3>(0) * self.others.clone());
-        let joint = mu.matmul(Tensor::from_inner(self.select.clone())) + sampled;
+        let joint = self.own_joint(mu, actions);
         let og = Tensor::from_inner(og.clone().unsqueeze_dim::<3>(0).expand([a, n, ogd]));
         Tensor::cat(vec![og, joint], 2)
     }
+
+    /// The sampled joint action with agent `i`'s block replaced by its `mu_i`,
+    /// for every agent: `[A, n, action_dim]` on the autodiff device.
+    fn own_joint(&self, mu: Tensor<3>, actions: &Tensor<2>) -> Tensor<3> {
+        let sampled = Tensor::from_inner(actions.clone().unsqueeze_dim::<3>(0) * self.others.clone());
+        mu.matmul(Tensor::from_inner(self.select.clone())) + sampled
+    }
+}
+
+/// What a group's critics see ([`crate::CriticView`]).
+#[derive(Clone)]
+pub(crate) enum CriticInput {
+    /// `[x, g]` and the joint action: one input row for all agents.
+    Global,
+    /// Agent `i`'s padded actor input, then the actions it sees in the joint
+    /// action's columns: `select[i]` (`[A, action_dim, width]`) places them
+    /// right after its own actor input, in a critic input `width` wide.
+    Local { select: Box<Tensor<3>>, width: usize },
+}
+
+impl CriticInput {
+    /// For agents `agents` whose critics see the actions of the agents in
+    /// `sets[i]` (own first), with actor inputs `inputs` and action widths
+    /// `actions` (all agents), in a joint action of `width` columns.
+    pub(crate) fn local(
+        agents: Range<usize>,
+        sets: &[Vec<usize>],
+        inputs: &[usize],
+        actions: &[usize],
+        width: usize,
+        device: &Device,
+    ) -> Self {
+        let offset = |j: usize| actions[..j].iter().sum::<usize>();
+        let cols = |i: usize| inputs[i] + sets[i].iter().map(|&j| actions[j]).sum::<usize>();
+        let out = agents.clone().map(cols).max().unwrap_or(0);
+        let mut select = vec![0.0f32; agents.len() * width * out];
+        for (k, i) in agents.clone().enumerate() {
+            let mut o = inputs[i];
+            for &j in &sets[i] {
+                for c in 0..actions[j] {
+                    select[(k * width + offset(j) + c) * out + o] = 1.0;
+                    o += 1;
+                }
+            }
+        }
+        let select = Tensor::from_data(TensorData::new(select, [agents.len(), width, out]), device);
+        Self::Local { select: Box::new(select), width: out }
+    }
+}
+
+impl Group {
+    /// Every agent's critic input for the group's padded actor inputs `x`
+    /// (`[A, n, in_max]`) and joint actions `joint` (`[1, n, action_dim]`),
+    /// on the plain device; `global` is the input of a global critic.
+    pub(crate) fn critic_input(&self, global: &Tensor<3>, x: &Tensor<3>, joint: &Tensor<3>) -> Tensor<3> {
+        match &self.critic_view {
+            CriticInput::Global => global.clone(),
+            CriticInput::Local { select, width } => pad(x.clone(), *width) + joint.clone().matmul(*select.clone()),
+        }
+    }
+
+    /// Every agent's critic input with its own action replaced by `mu`
+    /// (`[A, n, d_max]`, with gradient) on the autodiff device.
+    pub(crate) fn critic_input_own(&self, mu: Tensor<3>, b: &crate::learner::BatchTensors, g: usize) -> Tensor<3> {
+        match &self.critic_view {
+            CriticInput::Global => self.joint.with_own(mu, &b.og, &b.actions),
+            CriticInput::Local { select, width } => {
+                let joint = self.joint.own_joint(mu, &b.actions);
+                Tensor::from_inner(pad(b.groups[g].x_now.clone(), *width))
+                    + joint.matmul(Tensor::from_inner(*select.clone()))
+            }
+        }
+    }
+}
+
+/// `x: [A, n, d]` with zero columns up to `width`.
+fn pad(x: Tensor<3>, width: usize) -> Tensor<3> {
+    let [a, n, d] = x.dims();
+    if d >= width {
+        return x;
+    }
+    let zeros = Tensor::zeros([a, n, width - d], &x.device());
+    Tensor::cat(vec![x, zeros], 2)
 }
 
 /// A group's share of a sampled batch, on the device.
@@ -180,6 +262,8 @@ pub(crate) struct Group {
     pub(crate) actor_layout: StackLayout,
     pub(crate) critic_layout: StackLayout,
     pub(crate) joint: Joint,
+    /// What its critics see.
+    pub(crate) critic_view: CriticInput,
     /// The host copy of the actors that rollouts act with, made lazily after each update phase.
     pub(crate) act_cache: Option<StackedMlp>,
 }
@@ -190,8 +274,11 @@ pub(crate) struct GroupSpec<'a> {
     pub(crate) inputs: &'a [usize],
     /// Each agent's action width.
     pub(crate) actions: &'a [usize],
-    /// The critics' input width.
-    pub(crate) critic_input: usize,
+    /// Each agent's critic input width.
+    pub(crate) critic_inputs: &'a [usize],
+    /// Whose actions each agent's critic sees, own first, when it does not
+    /// see the global input (`None`: it does).
+    pub(crate) critic_sets: Option<&'a [Vec<usize>]>,
     pub(crate) hidden: usize,
     pub(crate) layers: usize,
     pub(crate) seed: u64,
@@ -243,10 +330,15 @@ impl Group {
             .with_streams(range.map(|i| 8 * i as u64).collect())
         };
         let critic = |range: Range<usize>, c: usize| {
-            StackedMlpConfig::new(vec![spec.critic_input; range.len()], spec.hidden, spec.layers, vec![1; range.len()])
-                .with_seed(spec.seed)
-                .with_streams(range.map(|i| 8 * i as u64 + 1 + 2 * c as u64).collect())
-                .with_shared_layers(spec.critic_shared)
+            StackedMlpConfig::new(
+                spec.critic_inputs[range.clone()].to_vec(),
+                spec.hidden,
+                spec.layers,
+                vec![1; range.len()],
+            )
+            .with_seed(spec.seed)
+            .with_streams(range.map(|i| 8 * i as u64 + 1 + 2 * c as u64).collect())
+            .with_shared_layers(spec.critic_shared)
         };
         let actor_config = actor(r.clone());
         let (actor_layout, critic_layout) = (actor_config.layout(), critic(r.clone(), 0).layout());
@@ -280,7 +372,11 @@ impl Group {
         };
         let offsets: Vec<usize> = r.clone().map(|i| spec.actions[..i].iter().sum()).collect();
         let joint = Joint::new(&spec.actions[r.clone()], &offsets, width, device);
-        Self { agents, nets, actor_layout, critic_layout, joint, act_cache: None }
+        let critic_view = match spec.critic_sets {
+            None => CriticInput::Global,
+            Some(sets) => CriticInput::local(r, sets, spec.inputs, spec.actions, width, device),
+        };
+        Self { agents, nets, actor_layout, critic_layout, joint, critic_view, act_cache: None }
     }
 
     /// Number of agents.

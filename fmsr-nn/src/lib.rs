@@ -3,8 +3,8 @@
 //! information sharing (paper section III, Algorithm 1).
 //!
 //! Every learner is one generic off-policy learner, [`OffPolicy<R>`], over an
-//! update rule (the crate's own `UpdateRule` trait) that holds only what makes the algorithm itself (its config,
-//! its losses and targets, its own state): [`Maddpg`] is
+//! update rule ([`UpdateRule`], public: a user's algorithm is one) that holds only what makes the algorithm itself (its config,
+//! its losses and targets, what its critics see, its own state): [`Maddpg`] is
 //! `OffPolicy<MaddpgRule>`, [`Matd3`] `OffPolicy<Matd3Rule>`, [`Masac`]
 //! `OffPolicy<MasacRule>` ([`off_policy`]). `OffPolicy` implements
 //! [`fmsr_core::Algorithm`], [`fmsr_core::Policy`] and
@@ -92,16 +92,18 @@ mod workers;
 pub use any::{AlgorithmKind, AnyLearner};
 /// burn's device type, re-exported for [`LearnerParts::with_device`] (e.g. `Device::flex()`).
 pub use burn::tensor::Device;
-pub use config::{CriticSharing, MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, Stacking, Teammates};
+pub use config::{
+    CriticSharing, CriticView, MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, Stacking, Teammates,
+};
 pub use device::{Adapter, DeviceSpec};
 pub use error::NnError;
-pub use learner::LearnerParts;
+pub use learner::{BatchTensors, Learner, LearnerParts};
 pub use maddpg::{Maddpg, MaddpgRule};
 pub use masac::{Masac, MasacRule};
 pub use matd3::{Matd3, Matd3Rule};
 pub use net::{Critics, NetShape, StackLayout, StackedLinear, StackedMlp, StackedMlpConfig};
 pub use normalizer::Normalizer;
-pub use off_policy::{OffPolicy, StepLosses};
+pub use off_policy::{OffPolicy, RuleState, StepLosses, UpdateRule};
 pub use state::{RescueLevel, policy_from_learner_state, rescue_state};
 
 /// Everything needed for typical use: `use fmsr_nn::prelude::*;`.

@@ -19,9 +19,8 @@ use fmsr_core::policy::{ActMode, PolicyOutput};
 
 use crate::config::MaddpgConfig;
 use crate::error::NnError;
-use crate::learner::deterministic::{actor_step, deterministic_act, target_actions};
 use crate::learner::{BatchTensors, Learner, LearnerParts};
-use crate::off_policy::{OffPolicy, StepLosses, UpdateRule, no_values};
+use crate::off_policy::{OffPolicy, StepLosses, UpdateRule};
 
 /// Multi-agent DDPG; see the [module docs](self).
 ///
@@ -70,48 +69,30 @@ impl Maddpg {
     /// fit the layout, backend errors.
     pub fn learn_batch(&mut self, batch: &Batch, q_bounds: &[(f32, f32)]) -> Result<(Vec<f32>, Vec<f32>), NnError> {
         let b = self.learner.tensors(batch, q_bounds.to_vec())?;
-        let StepLosses { critic, actor } = self.rule.step(&mut self.learner, &b)?;
+        let StepLosses { critic, actor } = self.rule_step(&b)?;
         Ok((critic, actor.unwrap_or_default()))
     }
 }
 
 impl UpdateRule for MaddpgRule {
     const NAME: &'static str = "maddpg";
-    const CRITICS: usize = 1;
-    const HEADS: usize = 1;
 
     fn validate(&self) -> Result<(), NnError> {
         self.config.validate()
     }
 
     fn act(&mut self, l: &mut Learner, inputs: &[Vec<f32>], n: usize, mode: ActMode) -> Result<PolicyOutput, NnError> {
-        deterministic_act(l, inputs, n, mode, (self.config.noise_eps, self.config.random_eps))
+        l.deterministic_act(inputs, n, mode, self.config.noise_eps, self.config.random_eps)
     }
 
     fn step(&mut self, l: &mut Learner, b: &BatchTensors) -> Result<StepLosses, NnError> {
-        let next = target_actions(l, b)?;
-        let critic = l.critic_step(b, next, None)?;
-        let actor = actor_step(l, b, self.config.action_l2, self.config.teammates)?;
-        l.steps += 1;
+        let next = l.target_actions(b)?;
+        let critic = l.critic_step(b, next)?;
+        let actor = l.deterministic_actor_step(b, self.config.action_l2, self.config.teammates)?;
         Ok(StepLosses { critic, actor: Some(actor) })
     }
 
     fn targets(&self) -> (f64, bool) {
         (self.config.polyak, true)
-    }
-
-    /// No state of its own beside the config.
-    type State = ();
-
-    fn state(&self) {}
-
-    fn check(&self, (): &(), _: usize) -> Result<(), NnError> {
-        Ok(())
-    }
-
-    fn restore(&mut self, (): ()) {}
-
-    fn state_from_values(&self, values: &[f64], _: usize) -> Result<(), NnError> {
-        no_values(Self::NAME, values)
     }
 }

@@ -29,7 +29,7 @@ use crate::error::NnError;
 use crate::explore::{gaussian, randomize};
 use crate::group::to_vec1;
 use crate::learner::{BatchTensors, Learner, LearnerParts};
-use crate::off_policy::{OffPolicy, StepLosses, UpdateRule};
+use crate::off_policy::{OffPolicy, RuleState, StepLosses, UpdateRule};
 
 const HALF_LOG_TAU: f32 = 0.918_938_5; // log(2 pi) / 2
 
@@ -196,7 +196,7 @@ impl UpdateRule for MasacRule {
             .into_iter()
             .reduce(|a, b| a + b)
             .ok_or(NnError::Backend { what: "next actions", reason: "no group".into() })?;
-        let critic = l.critic_step(b, joint, Some(soft))?;
+        let critic = l.critic_step_soft(b, joint, Some(soft))?;
         // Actor step on fresh samples; the batch means of log pi feed the temperature.
         let eps = l.noise(n, gaussian);
         let current;
@@ -212,7 +212,7 @@ impl UpdateRule for MasacRule {
             let head = group.nets.actors.forward(Tensor::from_inner(b.groups[g].x_now.clone()));
             let mask = Tensor::from_inner(group.joint.mask.clone());
             let (a, lp) = sample(head, Tensor::from_inner(eps[g].clone()), mask, bounds);
-            let input = group.joint.with_own(a, &b.og, &b.actions);
+            let input = group.critic_input_own(a, b, g);
             let q = critics.nets[0].forward(input.clone()).min_pair(critics.nets[1].forward(input));
             let m = to_vec1(lp.clone().mean_dim(1).reshape([group.len()]), "log pi")?;
             if let Ok(mut v) = mean_logp.lock() {
@@ -225,7 +225,6 @@ impl UpdateRule for MasacRule {
         // Every worker tunes the same temperatures (the mean over all batches).
         l.comm.all_reduce_mean(&mut mean_logp);
         let dims: Vec<usize> = (0..na).map(|i| l.action_dim(i)).collect();
-        l.steps += 1;
         let c = &l.net;
         self.update_temperatures(&mean_logp, &dims, (c.adam_beta1, c.adam_beta2, c.adam_epsilon));
         Ok(StepLosses { critic, actor: Some(actor) })
@@ -235,13 +234,16 @@ impl UpdateRule for MasacRule {
         (self.config.polyak, false)
     }
 
-    type State = MasacState;
-
-    fn state(&self) -> MasacState {
-        self.state.clone()
+    /// Version 1: postcard of [`MasacState`] (as learner states of formats 5 and 6 held it).
+    fn state(&self) -> Result<Option<RuleState>, NnError> {
+        RuleState::encode(1, &self.state).map(Some)
     }
 
-    fn check(&self, state: &MasacState, agents: usize) -> Result<(), NnError> {
+    fn restore(&mut self, state: Option<&RuleState>, agents: usize) -> Result<(), NnError> {
+        let state: MasacState = match state {
+            Some(s) => s.decode(Self::NAME, 1..=1)?,
+            None => MasacState::default(),
+        };
         let (a, b) = (state.log_alpha.len(), state.alpha_adam.len());
         if a != agents || b != agents {
             return Err(NnError::StateMismatch {
@@ -250,15 +252,12 @@ impl UpdateRule for MasacRule {
                 found: format!("{a}, {b}"),
             });
         }
+        self.state = state;
         Ok(())
     }
 
-    fn restore(&mut self, state: MasacState) {
-        self.state = state;
-    }
-
     /// Format 4 kept the log temperatures, then each agent's Adam state `(t, m, v)`.
-    fn state_from_values(&self, values: &[f64], agents: usize) -> Result<MasacState, NnError> {
+    fn state_from_values(&self, values: &[f64], agents: usize) -> Result<Option<RuleState>, NnError> {
         if values.len() != 4 * agents {
             return Err(NnError::StateMismatch {
                 what: "temperature state".into(),
@@ -268,6 +267,6 @@ impl UpdateRule for MasacRule {
         }
         let (log_alpha, adam) = values.split_at(agents);
         let alpha_adam = adam.chunks_exact(3).map(|c| ScalarAdam { t: c[0] as u64, m: c[1], v: c[2] }).collect();
-        Ok(MasacState { log_alpha: log_alpha.to_vec(), alpha_adam })
+        RuleState::encode(1, &MasacState { log_alpha: log_alpha.to_vec(), alpha_adam }).map(Some)
     }
 }

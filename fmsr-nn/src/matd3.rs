@@ -15,9 +15,8 @@ use fmsr_core::policy::{ActMode, PolicyOutput};
 use crate::config::Matd3Config;
 use crate::error::NnError;
 use crate::explore::gaussian;
-use crate::learner::deterministic::{actor_step, deterministic_act, target_actions};
 use crate::learner::{BatchTensors, Learner, LearnerParts, matrix};
-use crate::off_policy::{OffPolicy, StepLosses, UpdateRule, no_values};
+use crate::off_policy::{OffPolicy, StepLosses, UpdateRule};
 
 /// Multi-agent TD3; see the [module docs](self).
 pub type Matd3 = OffPolicy<Matd3Rule>;
@@ -47,26 +46,25 @@ impl Matd3 {
 impl UpdateRule for Matd3Rule {
     const NAME: &'static str = "matd3";
     const CRITICS: usize = 2;
-    const HEADS: usize = 1;
 
     fn validate(&self) -> Result<(), NnError> {
         self.config.validate()
     }
 
     fn act(&mut self, l: &mut Learner, inputs: &[Vec<f32>], n: usize, mode: ActMode) -> Result<PolicyOutput, NnError> {
-        deterministic_act(l, inputs, n, mode, (self.config.noise_eps, self.config.random_eps))
+        l.deterministic_act(inputs, n, mode, self.config.noise_eps, self.config.random_eps)
     }
 
     /// One critic step, and an actor step every `policy_delay` of them.
     fn step(&mut self, l: &mut Learner, b: &BatchTensors) -> Result<StepLosses, NnError> {
         let (sigma, clip) = (self.config.target_noise as f32, self.config.target_noise_clip as f32);
-        let width: usize = (0..l.num_agents()).map(|i| l.action_dim(i)).sum();
+        let width = l.joint_width();
         let noise: Vec<f32> = (0..b.n * width).map(|_| (sigma * gaussian(&mut l.rng)).clamp(-clip, clip)).collect();
-        let smoothed = target_actions(l, b)? + matrix(noise, b.n, width, &l.device);
-        let critic = l.critic_step(b, smoothed.clamp(-1.0, 1.0), None)?;
-        l.steps += 1;
-        let actor = if l.steps.is_multiple_of(self.config.policy_delay as u64) {
-            Some(actor_step(l, b, self.config.action_l2, self.config.teammates)?)
+        let smoothed = l.target_actions(b)? + matrix(noise, b.n, width, &l.device);
+        let critic = l.critic_step(b, smoothed.clamp(-1.0, 1.0))?;
+        // This is critic step `step_index() + 1` (counted from one).
+        let actor = if (l.step_index() + 1).is_multiple_of(self.config.policy_delay as u64) {
+            Some(l.deterministic_actor_step(b, self.config.action_l2, self.config.teammates)?)
         } else {
             None
         };
@@ -75,20 +73,5 @@ impl UpdateRule for Matd3Rule {
 
     fn targets(&self) -> (f64, bool) {
         (self.config.polyak, true)
-    }
-
-    /// No state of its own beside the config.
-    type State = ();
-
-    fn state(&self) {}
-
-    fn check(&self, (): &(), _: usize) -> Result<(), NnError> {
-        Ok(())
-    }
-
-    fn restore(&mut self, (): ()) {}
-
-    fn state_from_values(&self, values: &[f64], _: usize) -> Result<(), NnError> {
-        no_values(Self::NAME, values)
     }
 }

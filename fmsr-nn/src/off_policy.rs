@@ -14,40 +14,55 @@
 //! then the targets move once: theta' <- polyak theta' + (1 - polyak) theta   (eq. 9)
 //! ```
 //!
-//! A rule is written in this crate, against the crate's learner; an algorithm
-//! of your own crate implements [`Algorithm`] directly (the `fmsr` crate's
-//! `examples/custom_algorithm.rs`).
+//! A rule is public: an algorithm of your own crate is a struct and this
+//! trait, written against the learner's public view ([`Learner`]: target
+//! actions, the critic step, the deterministic actor step, acting, the step
+//! index and the RNG), and `OffPolicy<YourRule>` is then a whole learner with
+//! everything above, resumable and exportable (the `fmsr` crate's
+//! `examples/custom_algorithm.rs`: IDDPG in one short file). The learner
+//! counts the steps, applies information sharing and worker averaging inside
+//! the steps it offers, moves the targets and saves the state.
+
+use std::ops::RangeInclusive;
 
 use fmsr_core::algorithm::{Algorithm, RewardModel, UpdateStats};
 use fmsr_core::policy::{ActMode, Policy, PolicyOutput, PolicyState};
 use fmsr_core::replay::Episode;
 
-use serde::Serialize;
 use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
 
+use crate::config::CriticView;
 use crate::error::NnError;
 use crate::learner::{BatchTensors, Learner, LearnerParts};
 use crate::state::SavedRule;
 
 /// What distinguishes one off-policy algorithm; see the [module docs](self).
 ///
-/// Its methods take the crate's shared learner, so the trait is this crate's
-/// own (a user's algorithm implements [`Algorithm`] instead). A new rule is
-/// one file: a struct holding its config and state, this trait, and the
-/// `new` of its `OffPolicy` alias.
-pub(crate) trait UpdateRule: std::fmt::Debug + Send {
+/// A rule holds its config and its own state. The learner builds `CRITICS`
+/// critics per agent that see `CRITIC_VIEW`, actor heads of `HEADS` blocks,
+/// and calls [`UpdateRule::step`] `replay.batches` times a cycle on sampled
+/// HER batches, counting the steps ([`Learner::step_index`]) itself. A rule
+/// with state of its own beside the networks (MASAC's temperatures) saves it
+/// as a versioned [`RuleState`]; a rule without any implements neither
+/// [`UpdateRule::state`] nor [`UpdateRule::restore`] and writes nothing.
+pub trait UpdateRule: std::fmt::Debug + Clone + Send + 'static {
     /// The name saved states and policy states carry (`"maddpg"`).
     const NAME: &'static str;
     /// Critics per agent (2 for twin critics).
-    const CRITICS: usize;
+    const CRITICS: usize = 1;
     /// Output blocks of each actor head (2 for a Gaussian's mean and log-std).
-    const HEADS: usize;
+    const HEADS: usize = 1;
+    /// What each agent's critic sees.
+    const CRITIC_VIEW: CriticView = CriticView::Global;
 
     /// Checks the rule's own settings.
     ///
     /// # Errors
     /// [`NnError::InvalidConfig`] naming the first impossible setting.
-    fn validate(&self) -> Result<(), NnError>;
+    fn validate(&self) -> Result<(), NnError> {
+        Ok(())
+    }
 
     /// Prepares the rule's own state for a learner of `agents` agents.
     fn init(&mut self, _agents: usize) {}
@@ -68,39 +83,92 @@ pub(crate) trait UpdateRule: std::fmt::Debug + Send {
     /// How the targets move after a cycle: `polyak` and whether the actors have targets.
     fn targets(&self) -> (f64, bool);
 
-    /// The rule's own state beside the networks, saved with them (learner
-    /// state format 5 on: postcard bytes of this record).
-    type State: Serialize + DeserializeOwned;
-
-    /// The rule's own state, to save.
-    fn state(&self) -> Self::State;
-
-    /// Checks a saved state against this rule for `agents` agents before anything is restored.
+    /// The rule's own state, to save with the learner (`None`: it has none).
     ///
     /// # Errors
-    /// [`NnError::StateMismatch`] naming what does not fit.
-    fn check(&self, state: &Self::State, agents: usize) -> Result<(), NnError>;
+    /// [`NnError::Backend`] when it does not encode.
+    fn state(&self) -> Result<Option<RuleState>, NnError> {
+        Ok(None)
+    }
 
-    /// Restores a checked state.
-    fn restore(&mut self, state: Self::State);
+    /// Restores the saved state of a learner of `agents` agents (`None`
+    /// when the state holds none). The learner calls this on a copy of the
+    /// rule before it changes anything, so an error leaves both as they were.
+    ///
+    /// # Errors
+    /// [`NnError::StateMismatch`] / [`NnError::CorruptState`] naming what does not fit.
+    fn restore(&mut self, state: Option<&RuleState>, _agents: usize) -> Result<(), NnError> {
+        match state {
+            None => Ok(()),
+            Some(s) => Err(NnError::StateMismatch {
+                what: format!("{} state", Self::NAME),
+                expected: "none".into(),
+                found: format!("version {}, {} bytes", s.version, s.bytes.len()),
+            }),
+        }
+    }
 
-    /// The state of a format-4 learner state, which kept it as a list of values.
+    /// The state of a format-4 learner state, which kept it as a list of
+    /// values (only the crate's MASAC had any).
     ///
     /// # Errors
     /// [`NnError::StateMismatch`] for values that do not fit.
-    fn state_from_values(&self, values: &[f64], agents: usize) -> Result<Self::State, NnError>;
+    fn state_from_values(&self, values: &[f64], _agents: usize) -> Result<Option<RuleState>, NnError> {
+        if values.is_empty() {
+            return Ok(None);
+        }
+        Err(NnError::StateMismatch {
+            what: format!("{} state", Self::NAME),
+            expected: "no values".into(),
+            found: values.len().to_string(),
+        })
+    }
 }
 
-/// [`UpdateRule::state_from_values`] of a rule without state of its own: no values.
-pub(crate) fn no_values(name: &str, values: &[f64]) -> Result<(), NnError> {
-    if values.is_empty() {
-        return Ok(());
+/// An update rule's own state as a learner state holds it: a version of the
+/// rule's choosing and the postcard bytes of a serde value.
+///
+/// ```
+/// use fmsr_nn::RuleState;
+/// let s = RuleState::encode(2, &vec![0.5f64, 1.0])?;
+/// assert_eq!(s.decode::<Vec<f64>>("demo", 1..=2)?, vec![0.5, 1.0]);
+/// assert!(s.decode::<Vec<f64>>("demo", 3..=3).is_err(), "a version this reader does not know");
+/// # Ok::<(), fmsr_nn::NnError>(())
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RuleState {
+    /// The layout's version, checked by the rule that reads it.
+    pub version: u32,
+    /// postcard bytes of the value.
+    pub bytes: Vec<u8>,
+}
+
+impl RuleState {
+    /// `value` as version `version`.
+    ///
+    /// # Errors
+    /// [`NnError::Backend`] when the value does not encode.
+    pub fn encode<T: Serialize>(version: u32, value: &T) -> Result<Self, NnError> {
+        let bytes = postcard::to_allocvec(value)
+            .map_err(|e| NnError::Backend { what: "update rule state", reason: e.to_string() })?;
+        Ok(Self { version, bytes })
     }
-    Err(NnError::StateMismatch {
-        what: format!("{name} state"),
-        expected: "no values".into(),
-        found: values.len().to_string(),
-    })
+
+    /// The value, when its version is one of `versions`; `rule` names the rule in errors.
+    ///
+    /// # Errors
+    /// [`NnError::StateMismatch`] for another version, [`NnError::CorruptState`] for bytes that do not decode.
+    pub fn decode<T: DeserializeOwned>(&self, rule: &str, versions: RangeInclusive<u32>) -> Result<T, NnError> {
+        if !versions.contains(&self.version) {
+            return Err(NnError::StateMismatch {
+                what: format!("{rule} state version"),
+                expected: format!("{} to {}", versions.start(), versions.end()),
+                found: self.version.to_string(),
+            });
+        }
+        postcard::from_bytes(&self.bytes)
+            .map_err(|e| NnError::CorruptState { offset: 0, reason: format!("{rule} state: {e}") })
+    }
 }
 
 /// Each agent's losses of one gradient step.
@@ -119,7 +187,6 @@ pub struct OffPolicy<R> {
     pub(crate) rule: R,
 }
 
-#[allow(private_bounds)]
 impl<R: UpdateRule> OffPolicy<R> {
     /// The learner of `rule` from the shared parts.
     ///
@@ -127,7 +194,7 @@ impl<R: UpdateRule> OffPolicy<R> {
     /// [`NnError::InvalidConfig`] / [`NnError::Sharing`] naming the first impossible setting.
     pub fn with_rule(parts: LearnerParts, mut rule: R) -> Result<Self, NnError> {
         rule.validate()?;
-        let learner = Learner::new(parts, R::CRITICS, R::HEADS)?;
+        let learner = Learner::new(parts, R::CRITICS, R::HEADS, R::CRITIC_VIEW)?;
         rule.init(learner.num_agents());
         Ok(Self { learner, rule })
     }
@@ -144,7 +211,14 @@ impl<R: UpdateRule> OffPolicy<R> {
     /// Backend and shape errors.
     pub fn step(&mut self, rewards: &dyn RewardModel) -> Result<Option<StepLosses>, NnError> {
         let Some(b) = self.learner.sample(rewards)? else { return Ok(None) };
-        self.rule.step(&mut self.learner, &b).map(Some)
+        self.rule_step(&b).map(Some)
+    }
+
+    /// The rule's step on `b`, counted.
+    pub(crate) fn rule_step(&mut self, b: &BatchTensors) -> Result<StepLosses, NnError> {
+        let losses = self.rule.step(&mut self.learner, b)?;
+        self.learner.steps += 1;
+        Ok(losses)
     }
 
     /// Moves the target networks towards the online networks (eq. 9); the
@@ -234,7 +308,6 @@ fn run_cycle(
     Ok(stats)
 }
 
-#[allow(private_bounds)]
 impl<R: UpdateRule> Policy for OffPolicy<R> {
     type Error = NnError;
 
@@ -247,7 +320,6 @@ impl<R: UpdateRule> Policy for OffPolicy<R> {
     }
 }
 
-#[allow(private_bounds)]
 impl<R: UpdateRule> Algorithm for OffPolicy<R> {
     fn store(&mut self, episode: &Episode) -> Result<(), NnError> {
         self.learner.store(episode)
@@ -264,9 +336,7 @@ impl<R: UpdateRule> Algorithm for OffPolicy<R> {
     }
 
     fn save_state(&self, include_storage: bool) -> Result<Vec<u8>, NnError> {
-        let rule = postcard::to_allocvec(&self.rule.state())
-            .map_err(|e| NnError::Backend { what: "update rule state", reason: e.to_string() })?;
-        self.learner.save(R::NAME, include_storage, rule)
+        self.learner.save(R::NAME, include_storage, self.rule.state()?)
     }
 
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), NnError> {
@@ -286,27 +356,25 @@ impl<R: UpdateRule> Algorithm for OffPolicy<R> {
     }
 }
 
-#[allow(private_bounds)]
 impl<R: UpdateRule> OffPolicy<R> {
     /// [`Algorithm::load_state`], or with `thinned` a rescue state whose
     /// targets and optimiser moments may be absent ([`crate::rescue_state`]).
     fn load_learner(&mut self, bytes: &[u8], thinned: bool) -> Result<(), NnError> {
         let (rule, agents) = (&self.rule, self.learner.num_agents());
-        let state = self.learner.load(R::NAME, bytes, thinned, |saved| {
+        let restored = self.learner.load(R::NAME, bytes, thinned, |saved| {
             let state = match saved {
-                SavedRule::Typed(bytes) => postcard::from_bytes(&bytes)
-                    .map_err(|e| NnError::CorruptState { offset: 0, reason: format!("{} state: {e}", R::NAME) })?,
+                SavedRule::Typed(state) => state,
                 SavedRule::Values(values) => rule.state_from_values(&values, agents)?,
             };
-            rule.check(&state, agents)?;
-            Ok(state)
+            let mut restored = rule.clone();
+            restored.restore(state.as_ref(), agents)?;
+            Ok(restored)
         })?;
-        self.rule.restore(state);
+        self.rule = restored;
         Ok(())
     }
 }
 
-#[allow(private_bounds)]
 impl<R: UpdateRule> PolicyState for OffPolicy<R> {
     fn save_policy(&self) -> Result<Vec<u8>, NnError> {
         self.learner.save_policy(R::NAME)

@@ -22,18 +22,21 @@ use crate::group::Group;
 use crate::learner::Learner;
 use crate::net::Critics;
 use crate::normalizer::Normalizer;
+use crate::off_policy::RuleState;
 
 const MAGIC: &[u8; 8] = b"FMSRNNST";
 
-/// The version of [`LearnerState`]'s layout: 6 since the checksum is CRC-32C,
-/// 5 (the same body with FNV-1a) is still read. 5 made the update rule's own
-/// state a typed record (postcard bytes of the rule's `State`); 4 kept it as
-/// a list of values, and version-4 states are still read (the rule converts
-/// the values). 4 began with the agents' networks stacked in groups, each
-/// group with one optimiser record per kind; states of version 3 (one
-/// optimiser record per agent) are refused with [`NnError::CorruptState`]
-/// naming the versions this build reads.
-const STATE_FORMAT: u32 = 6;
+/// The version of [`LearnerState`]'s layout: 7 since the update rule's own
+/// state is an optional versioned record ([`RuleState`]: absent for a rule
+/// without state). 6 (CRC-32C) and 5 (the same body with FNV-1a) kept it as
+/// the postcard bytes of the rule's typed state, empty for a rule without
+/// any; they are read as version 1 of that state. 4 kept it as a list of
+/// values, and version-4 states are still read (the rule converts the
+/// values). 4 began with the agents' networks stacked in groups, each group
+/// with one optimiser record per kind; states of version 3 (one optimiser
+/// record per agent) are refused with [`NnError::CorruptState`] naming the
+/// versions this build reads.
+const STATE_FORMAT: u32 = 7;
 
 /// How a state is framed: [`fmsr_core::persist`]'s header (magic, version,
 /// checksum) with the kind of state named in errors.
@@ -44,7 +47,11 @@ struct Framing {
 
 /// The whole learner ([`LearnerState`]).
 const LEARNER: Framing =
-    Framing { format: persist::Format::new(MAGIC, STATE_FORMAT).reads_from(5).crc32c_since(6), what: "learner state" };
+    Framing { format: persist::Format::new(MAGIC, STATE_FORMAT).crc32c_since(6), what: "learner state" };
+
+/// The whole learner as formats 6 and 5 wrote it (the rule's state as postcard bytes).
+const LEARNER_V6: Framing =
+    Framing { format: persist::Format::new(MAGIC, 6).reads_from(5).crc32c_since(6), what: "learner state (format 6)" };
 
 /// The whole learner as format 4 wrote it (the rule's state as values, FNV-1a).
 const LEARNER_V4: Framing =
@@ -52,21 +59,30 @@ const LEARNER_V4: Framing =
 
 /// The update rule's own state as a saved learner holds it.
 pub(crate) enum SavedRule {
-    /// Format 5: the postcard bytes of the rule's typed state.
-    Typed(Vec<u8>),
+    /// Formats 5 on: a record, or none.
+    Typed(Option<RuleState>),
     /// Format 4: a list of values.
     Values(Vec<f64>),
 }
 
-/// A learner state of format 6 or 5, or of format 4 with its rule state as values.
+/// A learner state of format 7, 6 or 5, or of format 4 with its rule state as values.
 fn decode_learner(bytes: &[u8]) -> Result<(LearnerBody, SavedRule), NnError> {
     match persist::decode::<LearnerState>(&LEARNER.format, bytes) {
+        Ok(v7) => Ok((v7.learner, SavedRule::Typed(v7.rule))),
         Err(FormatError::Version { found: 4, .. }) => {
             let v4: LearnerStateOf<Vec<f64>> = decode(&LEARNER_V4, bytes)?;
             Ok((v4.learner, SavedRule::Values(v4.rule)))
         }
-        Ok(v5) => Ok((v5.learner, SavedRule::Typed(v5.rule))),
-        Err(_) => decode::<LearnerState>(&LEARNER, bytes).map(|v5| (v5.learner, SavedRule::Typed(v5.rule))),
+        Err(FormatError::Version { found: 5 | 6, .. }) => {
+            let v6: LearnerStateOf<Vec<u8>> = decode(&LEARNER_V6, bytes)?;
+            let rule = (!v6.rule.is_empty()).then_some(RuleState { version: 1, bytes: v6.rule });
+            Ok((v6.learner, SavedRule::Typed(rule)))
+        }
+        Err(FormatError::Version { found, .. }) => Err(NnError::CorruptState {
+            offset: 8,
+            reason: format!("learner state of format {found}; this build reads formats 4 to {STATE_FORMAT}"),
+        }),
+        Err(_) => decode::<LearnerState>(&LEARNER, bytes).map(|v7| (v7.learner, SavedRule::Typed(v7.rule))),
     }
 }
 
@@ -94,8 +110,13 @@ fn decode<T: DeserializeOwned>(framing: &Framing, bytes: &[u8]) -> Result<T, NnE
 }
 
 impl Learner {
-    /// The learner's state; `rule` carries the update rule's own (its typed state, postcard).
-    pub(crate) fn save(&self, algorithm: &str, include_storage: bool, rule: Vec<u8>) -> Result<Vec<u8>, NnError> {
+    /// The learner's state; `rule` carries the update rule's own.
+    pub(crate) fn save(
+        &self,
+        algorithm: &str,
+        include_storage: bool,
+        rule: Option<RuleState>,
+    ) -> Result<Vec<u8>, NnError> {
         let mut agents = Vec::with_capacity(self.num_agents());
         let (mut actor_optim, mut critic_optim) = (Vec::new(), Vec::new());
         for group in &self.groups {
@@ -132,8 +153,8 @@ impl Learner {
         encode(&LEARNER, &LearnerState { learner, rule })
     }
 
-    /// Restores a state written by [`Learner::save`] (format 6), by format 5 or by format
-    /// 4. `rule` turns the saved rule state into the rule's and checks it
+    /// Restores a state written by [`Learner::save`] (format 7), by formats 6
+    /// and 5 or by format 4. `rule` turns the saved rule state into the rule's and checks it
     /// before anything of this learner changes; its result is returned. With
     /// `thinned`, a state of [`crate::rescue_state`]: absent targets are
     /// restored as the online networks, absent optimiser moments as fresh ones.
@@ -257,7 +278,7 @@ fn check_critic_sharing(group: &Group, agents: &[AgentState]) -> Result<(), NnEr
         return Ok(());
     }
     let end = |k: usize| layout.shapes[0].offset(k);
-    let equal = |flats: Vec<&Vec<f32>>, end: usize| flats.iter().all(|f| f[..end] == flats[0][..end]);
+    let equal = |flats: Vec<&Vec<f32>>, end: usize| flats.iter().all(|f| f.get(..end) == flats[0].get(..end));
     let found = |shared: bool| if shared { "critics shared by the agents" } else { "a critic per agent" };
     for c in 0..agents[0].critics.len() {
         let online: Vec<&Vec<f32>> = agents.iter().map(|a| &a.critics[c]).collect();
@@ -304,11 +325,12 @@ struct AgentState {
     actor_norm: Normalizer,
 }
 
-/// A learner state of format 6 (and 5: the same body).
-type LearnerState = LearnerStateOf<Vec<u8>>;
+/// A learner state of format 7.
+type LearnerState = LearnerStateOf<Option<RuleState>>;
 
-/// The layout of formats 4 and 5, which differ only in the rule's state, the
-/// last field: values (`R = Vec<f64>`, 4) or postcard bytes (`Vec<u8>`, 5).
+/// The layout of formats 4 to 7, which differ only in the rule's state, the
+/// last field: values (`R = Vec<f64>`, 4), postcard bytes (`Vec<u8>`, 5 and
+/// 6) or an optional record (7).
 /// postcard writes a nested struct as its fields in order, so this is the
 /// flat layout format 4 wrote.
 #[derive(Serialize, Deserialize)]

@@ -36,17 +36,22 @@ use fmsr_core::sharing::{InformationSharing, NetworkKind, Sharing};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::config::{CriticSharing, NetworkConfig, Stacking};
+use crate::config::{CriticSharing, CriticView, NetworkConfig, Stacking};
 use crate::error::{NnError, check_values};
 use crate::group::{Group, GroupSpec};
 use crate::normalizer::Normalizer;
 use crate::workers::{par_each, worker_pools};
 
-pub(crate) use self::replay::BatchTensors;
+pub use self::replay::BatchTensors;
 pub use self::replay::{check_replay_fits, physical_memory_bytes};
 
-/// The shared machinery; see the [module docs](self).
-pub(crate) struct Learner {
+/// The shared machinery; see the [module docs](self). An update rule
+/// ([`crate::UpdateRule`]) sees it through its public methods: the agents and
+/// their action widths, the step index, the RNG and device, and the steps
+/// ([`Learner::target_actions`], [`Learner::critic_step`],
+/// [`Learner::deterministic_actor_step`], [`Learner::deterministic_act`]),
+/// each of which applies information sharing and worker averaging itself.
+pub struct Learner {
     pub(crate) layout: ObservationLayout,
     pub(crate) net: NetworkConfig,
     pub(crate) replay_config: ReplayConfig,
@@ -213,7 +218,12 @@ fn group_ranges(net: &NetworkConfig, agents: usize, device: &Device) -> Vec<std:
 impl Learner {
     /// A learner with `critics` critics per agent and actor heads of
     /// `head_mult * action_dim(i)` outputs.
-    pub(crate) fn new(parts: LearnerParts, critics: usize, head_mult: usize) -> Result<Self, NnError> {
+    pub(crate) fn new(
+        parts: LearnerParts,
+        critics: usize,
+        head_mult: usize,
+        view: CriticView,
+    ) -> Result<Self, NnError> {
         let LearnerParts { layout, networks: net, replay: replay_config, gamma, sharing, comm, device } = parts;
         net.validate()?;
         replay_config.validate().map_err(|e| NnError::InvalidConfig { key: "replay", reason: e.to_string() })?;
@@ -236,14 +246,35 @@ impl Learner {
                 ),
             });
         }
+        if view != CriticView::Global && net.critic != CriticSharing::PerAgent {
+            return Err(NnError::InvalidConfig {
+                key: "networks.critic",
+                reason: format!(
+                    "{:?} shares critics that see the global input; a critic of view {view:?} needs one per agent",
+                    net.critic
+                ),
+            });
+        }
         let device = device.inner();
         let na = spec.num_agents();
         let inputs: Vec<usize> = (0..na).map(|i| layout.actor_input_dim(i)).collect();
         let actions: Vec<usize> = spec.agents.iter().map(|a| a.action_dim()).collect();
+        let critic_sets: Option<Vec<Vec<usize>>> = match view {
+            CriticView::Global => None,
+            CriticView::Own => Some((0..na).map(|i| vec![i]).collect()),
+            CriticView::Neighbours => Some(
+                (0..na).map(|i| std::iter::once(i).chain(layout.neighbours(i).iter().copied()).collect()).collect(),
+            ),
+        };
+        let critic_inputs: Vec<usize> = match &critic_sets {
+            None => vec![layout.critic_input_dim(); na],
+            Some(sets) => (0..na).map(|i| inputs[i] + sets[i].iter().map(|&j| actions[j]).sum::<usize>()).collect(),
+        };
         let group_spec = GroupSpec {
             inputs: &inputs,
             actions: &actions,
-            critic_input: layout.critic_input_dim(),
+            critic_inputs: &critic_inputs,
+            critic_sets: critic_sets.as_deref(),
             hidden: net.hidden,
             layers: net.layers,
             seed: net.seed,
@@ -291,13 +322,45 @@ impl Learner {
     }
 
     /// Number of agents.
-    pub(crate) fn num_agents(&self) -> usize {
+    #[must_use]
+    pub fn num_agents(&self) -> usize {
         self.actor_norms.len()
     }
 
-    /// Agent `i`'s action dimension.
-    pub(crate) fn action_dim(&self, i: usize) -> usize {
+    /// Agent `i`'s action dimension (`i < num_agents()`).
+    #[must_use]
+    pub fn action_dim(&self, i: usize) -> usize {
         self.layout.spec().agents[i].action_dim()
+    }
+
+    /// The joint action's width (every agent's actions, agent-major).
+    #[must_use]
+    pub fn joint_width(&self) -> usize {
+        self.perm.len()
+    }
+
+    /// Gradient steps taken before the one in progress (the learner counts them).
+    #[must_use]
+    pub fn step_index(&self) -> u64 {
+        self.steps
+    }
+
+    /// The learner's random stream (exploration, sampling, a rule's own draws),
+    /// saved with the state.
+    pub fn rng(&mut self) -> &mut ChaCha8Rng {
+        &mut self.rng
+    }
+
+    /// The plain device the targets and batches live on.
+    #[must_use]
+    pub fn device(&self) -> &Device {
+        &self.device
+    }
+
+    /// The discount.
+    #[must_use]
+    pub fn gamma(&self) -> f64 {
+        self.gamma
     }
 
     /// The group of agent `agent` and the agent's index in it.
@@ -404,7 +467,7 @@ mod tests {
     use fmsr_core::spec::{AgentSpec, EnvSpec};
 
     use super::{Learner, LearnerParts};
-    use crate::config::{NetworkConfig, Stacking};
+    use crate::config::{CriticView, NetworkConfig, Stacking};
 
     // Guards `networks.threads`: the groups' updates run on that many worker
     // threads, at most one per group. The determinism tests compare thread
@@ -425,7 +488,8 @@ mod tests {
         let workers = |stacking: Stacking, threads: usize| {
             let net = NetworkConfig::new().with_hidden(8).with_layers(2).with_stacking(stacking).with_threads(threads);
             let replay = ReplayConfig { buffer_size: 100, ..ReplayConfig::default() };
-            let learner = Learner::new(LearnerParts::new(layout.clone(), net, replay, 0.9), 1, 1).unwrap();
+            let learner =
+                Learner::new(LearnerParts::new(layout.clone(), net, replay, 0.9), 1, 1, CriticView::Global).unwrap();
             (learner.groups.len(), learner.pools.len())
         };
         assert_eq!(workers(Stacking::PerAgent, 1), (3, 0), "one thread: on the calling thread");

@@ -3,7 +3,7 @@
 use burn::module::Module;
 
 use crate::error::{NnError, check_values};
-use crate::group::to_vec1;
+use crate::group::{CriticInput, to_vec1};
 
 use super::{Learner, matrix};
 
@@ -48,6 +48,12 @@ impl Learner {
         n: usize,
     ) -> Result<Vec<f32>, NnError> {
         let (g, k) = self.locate(agent)?;
+        if !matches!(self.groups[g].critic_view, CriticInput::Global) {
+            return Err(NnError::InvalidConfig {
+                key: "q_values",
+                reason: format!("agent {agent}'s critic does not see the global rows this reads"),
+            });
+        }
         let spec = self.layout.spec();
         check_values(|| "q_values obs".into(), obs, n * spec.obs_dim)?;
         check_values(|| "q_values goals".into(), goals, n * spec.goal_dim)?;

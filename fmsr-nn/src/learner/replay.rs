@@ -13,9 +13,10 @@ use crate::group::GroupBatch;
 use super::{Learner, matrix};
 
 /// A sampled batch on the device: normalised inputs, joint actions in
-/// agent-major column order, and each group's share.
+/// agent-major column order, and each group's share; what an update rule's
+/// step hands to the learner's steps.
 #[derive(Clone)]
-pub(crate) struct BatchTensors {
+pub struct BatchTensors {
     pub(crate) n: usize,
     /// `[x, g]` normalised, `n x (obs + goal)`.
     pub(crate) og: Tensor<2>,
@@ -25,6 +26,14 @@ pub(crate) struct BatchTensors {
     pub(crate) actions: Tensor<2>,
     /// Each group's inputs, rewards and bounds.
     pub(crate) groups: Vec<GroupBatch>,
+}
+
+impl BatchTensors {
+    /// The batch's rows.
+    #[must_use]
+    pub fn rows(&self) -> usize {
+        self.n
+    }
 }
 
 impl Learner {

@@ -53,6 +53,24 @@ impl Learner {
     /// One optimiser step of every agent's critics towards the clipped TD target (eq. 7)
     ///
     /// ```text
+    /// y_i = clip(r_i + gamma * min_c Q'_{i,c}(x', g, a'), lo_i, hi_i)
+    /// L_i = sum_c mean (Q_{i,c}(x, g, a) - y_i)^2
+    /// ```
+    ///
+    /// where `a'` is `next_actions` (`[rows, joint_width]`, agent-major, as
+    /// [`Learner::target_actions`] gives) and each critic sees its rule's
+    /// [`crate::CriticView`] of these. Worker averaging and information
+    /// sharing of the critics happen here. Returns each agent's loss.
+    ///
+    /// # Errors
+    /// Backend errors.
+    pub fn critic_step(&mut self, b: &BatchTensors, next_actions: Tensor<2>) -> Result<Vec<f32>, NnError> {
+        self.critic_step_soft(b, next_actions, None)
+    }
+
+    /// [`Learner::critic_step`] with an optional soft term (eq. 7)
+    ///
+    /// ```text
     /// y_i = clip(r_i + gamma * (min_c Q'_{i,c}(x', g, a') - soft_i), lo_i, hi_i)
     /// L_i = sum_c mean (Q_{i,c}(x, g, a) - y_i)^2
     /// ```
@@ -60,19 +78,23 @@ impl Learner {
     /// for every group's agents at once, where `a'` is `next_actions`
     /// (`[n, action_dim]`, agent-major) and `soft[g]` an optional `[A_g, n, 1]`
     /// term (MASAC's `alpha_i log pi_i`). Returns the agents' losses.
-    pub(crate) fn critic_step(
+    pub(crate) fn critic_step_soft(
         &mut self,
         b: &BatchTensors,
         next_actions: Tensor<2>,
         soft: Option<Vec<Tensor<3>>>,
     ) -> Result<Vec<f32>, NnError> {
-        let next_input = Tensor::cat(vec![b.og_next.clone(), next_actions], 1).unsqueeze_dim::<3>(0);
-        let input = Tensor::from_inner(Tensor::cat(vec![b.og.clone(), b.actions.clone()], 1).unsqueeze_dim::<3>(0));
+        let next_global = Tensor::cat(vec![b.og_next.clone(), next_actions.clone()], 1).unsqueeze_dim::<3>(0);
+        let next_joint = next_actions.unsqueeze_dim::<3>(0);
+        let joint = b.actions.clone().unsqueeze_dim::<3>(0);
+        let global = Tensor::cat(vec![b.og.clone(), b.actions.clone()], 1).unsqueeze_dim::<3>(0);
         let gamma = self.gamma as f32;
         // Each group's batch-mean Q of its first critic, for the epoch's statistics.
         let q_means = std::sync::Mutex::new(Vec::with_capacity(self.groups.len()));
         let losses = self.step_groups(NetworkKind::Critics, |g, group| {
             let (gb, na) = (&b.groups[g], group.len());
+            let next_input = group.critic_input(&next_global, &gb.x_next, &next_joint);
+            let input = Tensor::from_inner(group.critic_input(&global, &gb.x_now, &joint));
             let mut q_next = group.nets.critic_targets.nets.iter().map(|c| c.forward(next_input.clone()));
             let first = q_next.next().ok_or(NnError::Backend { what: "critic target", reason: "no critic".into() })?;
             let mut q_next = q_next.fold(first, Tensor::min_pair);
