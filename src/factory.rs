@@ -34,6 +34,38 @@ impl ExperimentConfig {
         envs: Vec<E>,
         comm: Arc<dyn Communicator>,
     ) -> Result<Trainer<E, AnyLearner>, ExperimentError> {
+        self.build_worker_trainer_with(envs, comm, |parts| {
+            Ok(match self.algorithm {
+                AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, self.maddpg_config())?),
+                AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, self.matd3_config())?),
+                AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, self.masac_config())?),
+            })
+        })
+    }
+
+    /// As [`ExperimentConfig::build_trainer`], with the learner that
+    /// `learner` builds from the experiment's parts (layout, networks,
+    /// replay, discount, information sharing, device) instead of the one
+    /// `algorithm` names: a user's update rule ([`fmsr_nn::UpdateRule`]) trains
+    /// on the experiment's task, shadow rewards and sharing.
+    ///
+    /// # Errors
+    /// As [`ExperimentConfig::build_trainer`], and those of `learner`.
+    pub fn build_trainer_with<E: Env + Send, A: Algorithm>(
+        &self,
+        envs: Vec<E>,
+        learner: impl FnOnce(LearnerParts) -> Result<A, ExperimentError>,
+    ) -> Result<Trainer<E, A>, ExperimentError> {
+        self.build_worker_trainer_with(envs, Arc::new(SingleProcess), learner)
+    }
+
+    /// [`ExperimentConfig::build_trainer_with`] as one of `comm.workers()` worker processes.
+    fn build_worker_trainer_with<E: Env + Send, A: Algorithm>(
+        &self,
+        envs: Vec<E>,
+        comm: Arc<dyn Communicator>,
+        learner: impl FnOnce(LearnerParts) -> Result<A, ExperimentError>,
+    ) -> Result<Trainer<E, A>, ExperimentError> {
         let spec = envs
             .first()
             .map(|e| e.spec().clone())
@@ -57,11 +89,7 @@ impl ExperimentConfig {
                 .with_sharing(sharing)
                 .with_communicator(Box::new(comm.clone()))
                 .with_device(parse_device(&self.device)?);
-        let learner = match self.algorithm {
-            AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, self.maddpg_config())?),
-            AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, self.matd3_config())?),
-            AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, self.masac_config())?),
-        };
+        let learner = learner(parts)?;
         let mut trainer_config = trainer_config;
         if envs.len() != trainer_config.worker_envs(comm.workers())? {
             // fmsr eval runs the test set on one environment.

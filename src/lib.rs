@@ -25,11 +25,16 @@
 //! The trainer knows algorithms only through two traits of `fmsr-core`:
 //! [`core::Policy`] (act for all agents) and [`core::Algorithm`] (store
 //! episodes, update with the trainer's [`core::RewardModel`], save and
-//! restore). `examples/custom_algorithm.rs` writes independent DDPG (each
-//! critic sees only its own agent's observation and action), which this crate
-//! does not ship, in one file against those traits and fmsr-nn's public
-//! networks, and trains it with [`core::trainer::Trainer`] like MADDPG;
-//! `tests/custom_algorithm.rs` checks that it learns TeamReach.
+//! restore). fmsr-nn's one off-policy learner, [`nn::OffPolicy`], implements
+//! both over an update rule, [`nn::UpdateRule`], which is public:
+//! `examples/custom_algorithm.rs` writes independent DDPG (each critic sees
+//! only its own agent's observation and action, `CriticView::Own`), which
+//! this crate does not ship, as one rule in one short file, and gets HER,
+//! information sharing, worker averaging, resume and policy export from the
+//! crate. [`experiment::ExperimentConfig::build_trainer_with`] trains such a
+//! learner on an experiment's task, shadow rewards and sharing;
+//! `tests/custom_algorithm.rs` checks that it learns TeamReach, resumes
+//! exactly and trains a Shadow Hand epoch.
 #![warn(missing_docs)]
 
 pub mod artefacts;

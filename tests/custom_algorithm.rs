@@ -1,43 +1,103 @@
-//! Guards that a user's algorithm written in one file against the public
-//! traits alone (`examples/custom_algorithm.rs`, independent DDPG) trains
-//! through the crate's trainer, and that its saved state restores its policy.
+//! Guards that a user's algorithm written as one update rule in one file
+//! (`examples/custom_algorithm.rs`, independent DDPG) gets everything else
+//! from the crate: it learns TeamReach with information sharing on, resumes
+//! exactly (Adam's moments included), exports its policy, refuses a state of
+//! another algorithm, and trains a Shadow Hand epoch of an experiment config.
 
 mod common;
 #[path = "../examples/custom_algorithm.rs"]
 #[allow(dead_code)]
 mod custom_algorithm;
 
-use custom_algorithm::{Iddpg, IddpgConfig};
+use custom_algorithm::{Iddpg, IddpgConfig, IddpgRule};
+use fmsr::experiment::ExperimentConfig;
 use fmsr::prelude::*;
 
 /// The success IDDPG must reach on 100 held-out TeamReach episodes after 12
-/// epochs (it reaches 0.99 at seed 1; a random policy 0.00).
+/// epochs with sharing on (a random policy: about 0.00).
 const SUCCESS: f64 = 0.8;
 
 #[test]
-fn iddpg_from_the_public_traits_learns_team_reach() {
+fn iddpg_as_a_rule_learns_team_reach_and_resumes_exactly() {
     let seeds: Vec<u64> = (0..100).map(|i| 10_000 + i).collect();
     let random = common::random_policy_success(&seeds);
-    let learned = custom_algorithm::train_team_reach(1, 12).unwrap();
+    let (mut trainer, learned) = custom_algorithm::train_team_reach(1, 12).unwrap();
     eprintln!("IDDPG: success {learned:.2} (random {random:.2})");
     assert!(learned >= SUCCESS && learned >= random + 0.4, "IDDPG reached {learned}, random policy {random}");
+
+    // The whole state, replay and optimiser moments included, continues as the learner itself would.
+    let state = trainer.algorithm().save_state(true).unwrap();
+    let env = TeamReachConfig::default().init().unwrap();
+    let fresh = || {
+        let parts = custom_algorithm::team_reach_parts(&env, 2, 0.95).unwrap();
+        Iddpg::with_rule(parts, IddpgRule::default()).unwrap()
+    };
+    let mut copy = fresh();
+    copy.load_state(&state).unwrap();
+    let original = trainer.algorithm_mut();
+    let a = original.update(&Rewards).unwrap();
+    let b = copy.update(&Rewards).unwrap();
+    assert_eq!(a.critic_loss, b.critic_loss, "a restored IDDPG steps as the original");
+    assert_eq!(a.actor_loss, b.actor_loss);
+    assert_eq!(original.params(1).unwrap(), copy.params(1).unwrap());
+
+    // Its policy state is the crate's: a fresh learner of the rule acts the same after loading it.
+    let mut other = fresh();
+    other.load_policy(&original.save_policy().unwrap()).unwrap();
+    let inputs: Vec<Vec<f32>> = (0..3).map(|i| vec![0.3; trainer.layout().actor_input_dim(i)]).collect();
+    let act = |l: &mut Iddpg| l.act(&inputs, 1, ActMode::Evaluate).unwrap().actions;
+    let acted = act(trainer.algorithm_mut());
+    assert_eq!(acted, act(&mut other));
 }
 
-fn iddpg(seed: u64) -> (Iddpg, ObservationLayout) {
-    let env = TeamReachConfig::default().init().unwrap();
-    let layout = ObservationLayout::from_graph(env.spec().clone(), &Graph::ring(3)).unwrap();
-    (Iddpg::new(layout.clone(), 0.95, IddpgConfig { seed, ..IddpgConfig::default() }).unwrap(), layout)
+/// Rewards `-|achieved - desired|_1` for every agent, bounds `[-10, 0]`.
+struct Rewards;
+
+impl RewardModel for Rewards {
+    fn goal_reward(&self, achieved: &[f32], desired: &[f32]) -> f32 {
+        -achieved.iter().zip(desired).map(|(a, d)| (a - d).abs()).sum::<f32>()
+    }
+
+    fn agent_rewards(&self, task: f32, _phi: &[f32], out: &mut [f32]) {
+        out.iter_mut().for_each(|o| *o = task);
+    }
+
+    fn reward_bounds(&self) -> Vec<(f64, f64)> {
+        vec![(-10.0, 0.0); 3]
+    }
 }
 
 #[test]
-fn iddpg_state_restores_its_policy_and_refuses_garbage() {
-    let (mut a, layout) = iddpg(3);
-    let (mut b, _) = iddpg(4);
-    let inputs: Vec<Vec<f32>> =
-        (0..3).map(|i| (0..2 * layout.actor_input_dim(i)).map(|k| (k as f32 * 0.37).sin()).collect()).collect();
-    let act = |p: &mut Iddpg| p.act(&inputs, 2, ActMode::Evaluate).unwrap().actions;
-    assert_ne!(act(&mut a), act(&mut b), "two seeds start from different networks");
-    b.load_state(&a.save_state(false).unwrap()).unwrap();
-    assert_eq!(act(&mut a), act(&mut b));
-    assert!(b.load_state(b"not a state").is_err());
+fn iddpg_critics_see_their_own_agent_and_refuse_maddpg_states() {
+    let env = TeamReachConfig::default().init().unwrap();
+    let layout = ObservationLayout::from_graph(env.spec().clone(), &Graph::ring(3)).unwrap();
+    let parts = || LearnerParts::new(layout.clone(), NetworkConfig::new().with_hidden(16), common::replay(), 0.95);
+    let iddpg = Iddpg::with_rule(parts(), IddpgRule::default()).unwrap();
+    let maddpg = Maddpg::new(parts(), MaddpgConfig::new()).unwrap();
+    for i in 0..3 {
+        // First layer: (input + 1) x hidden, the input being o_i and a_i alone.
+        let own = layout.actor_input_dim(i) + env.spec().agents[i].action_dim();
+        assert_eq!(
+            iddpg.params(i).unwrap().1.len(),
+            maddpg.params(i).unwrap().1.len() - 16 * (layout.critic_input_dim() - own)
+        );
+    }
+    let mut iddpg = iddpg;
+    let err = iddpg.load_state(&maddpg.save_state(false).unwrap()).unwrap_err();
+    assert!(matches!(err, NnError::StateMismatch { .. }), "{err}");
+    let bad = IddpgRule { config: IddpgConfig { polyak: 1.5, ..IddpgConfig::default() } };
+    let err = Iddpg::with_rule(parts(), bad).unwrap_err();
+    assert!(matches!(err, NnError::InvalidConfig { key: "iddpg.polyak", .. }), "{err}");
+}
+
+#[test]
+fn iddpg_trains_a_shadow_hand_epoch_of_an_experiment_with_sharing() {
+    let config = ExperimentConfig::from_toml(&common::tiny_config_text(), "tiny.toml".as_ref()).unwrap();
+    assert!(config.sharing_config().enabled, "the tiny config shares information");
+    let env = config.env_config().init().unwrap();
+    let mut trainer = custom_algorithm::on_experiment(&config, vec![env]).unwrap();
+    let before = trainer.algorithm().actor_trunk(0).unwrap();
+    let stats = trainer.run_epoch().unwrap();
+    assert!(stats.updates > 0, "the epoch updated the networks");
+    assert_ne!(trainer.algorithm().actor_trunk(0).unwrap(), before);
 }
