@@ -20,7 +20,9 @@
 //! (eq. 7, shadow rewards included), normalisers, information sharing over
 //! the graph (eq. 8) and worker averaging inside the steps, polyak targets
 //! (eq. 9), saved states with Adam's moments (resume, rescue points) and the
-//! policy state (`fmsr export`, `fmsr eval`).
+//! policy state (actors and normalisers, as policy files hold them). The
+//! `fmsr` command does not know the rule by name yet: it builds the three
+//! algorithms of its configs (issue 54, item 2, the registry).
 //!
 //! `cargo run --release --example custom_algorithm` trains it on TeamReach
 //! with information sharing; `tests/custom_algorithm.rs` checks that it
