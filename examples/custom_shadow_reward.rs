@@ -9,7 +9,9 @@
 //!   is `phi * F'(lambda) = phi / (2 sqrt(lambda + c))` (instead of the paper's
 //!   `log(lambda + 0.1)`, eqs. 11-12).
 //!
-//! `cargo run --release --example custom_shadow_reward`
+//! `cargo run --release --example custom_shadow_reward`;
+//! `tests/user_shadow_reward.rs` runs this file's [`train`] and checks that
+//! the user's shadow reward raises its feature above Dense's.
 
 use std::collections::VecDeque;
 
@@ -18,8 +20,9 @@ use fmsr::prelude::*;
 
 /// `F(lambda) = sqrt(lambda + c)`.
 #[derive(Debug, Clone, Copy)]
-struct SqrtUtility {
-    c: f64,
+pub struct SqrtUtility {
+    /// The offset `c`.
+    pub c: f64,
 }
 
 impl ShadowReward for SqrtUtility {
@@ -38,7 +41,7 @@ impl ShadowReward for SqrtUtility {
 
 /// The mean of each feature over the last `window` episodes.
 #[derive(Debug)]
-struct MeanOfRecent {
+pub struct MeanOfRecent {
     window: usize,
     episodes: VecDeque<Vec<f64>>,
     estimate: Vec<f64>,
@@ -71,8 +74,11 @@ impl OccupancyEstimator for MeanOfRecent {
 
 /// Trains MADDPG on TeamReach; with `shadow`, the wobbling agent `w` gets the
 /// shadow reward of the `safe_region` feature. Returns the feature's rate on
-/// 100 test episodes.
-fn train(shadow: bool) -> Result<f64> {
+/// 100 test episodes and the estimator's final estimate of it.
+///
+/// # Errors
+/// Errors of the environment, the shadow rewards, the trainer or MADDPG.
+pub fn train(shadow: bool) -> Result<(f64, f64)> {
     let env = TeamReachConfig::default().init()?;
     let spec = env.spec().clone();
     let graph = Graph::ring(3);
@@ -105,14 +111,14 @@ fn train(shadow: bool) -> Result<f64> {
         Ok(())
     })?;
     let seeds: Vec<u64> = (0..100).map(|i| 20_000 + i).collect();
-    Ok(trainer.evaluate(&seeds, None)?.feature_rates[0])
+    Ok((trainer.evaluate(&seeds, None)?.feature_rates[0], trainer.occupancy()[0]))
 }
 
 fn main() -> Result<()> {
     println!("sqrt utility + mean-of-recent estimator:");
-    let user = train(true)?;
+    let (user, _) = train(true)?;
     println!("Dense (task reward only):");
-    let dense = train(false)?;
+    let (dense, _) = train(false)?;
     println!("safe_region rate on the test episodes: user shadow reward {user:.3}, Dense {dense:.3}");
     Ok(())
 }
