@@ -56,7 +56,7 @@ use fmsr_envs::shadow_hand::{GoalDistance, ShadowHandConfig};
 pub use crate::error::ExperimentError;
 use fmsr_graph::Graph;
 use fmsr_nn::{
-    AlgorithmKind, CriticSharing, Device, DeviceSpec, MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, Teammates,
+    AlgorithmKind, CriticTying, Device, DeviceSpec, MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, Teammates,
 };
 
 /// The timestep of the Shadow Hand model (s); one env step is `substeps` of them.
@@ -433,7 +433,7 @@ impl ExperimentConfig {
             AlgorithmKind::Masac => self.masac_config().validate()?,
         }
         parse_device(&self.device)?;
-        if self.networks.critic == CriticSharing::Shared && self.method.shadow() {
+        if self.networks.critic == CriticTying::Shared && self.method.shadow() {
             return Err(ExperimentError::Config {
                 key: "networks.critic".into(),
                 reason: format!(
@@ -461,7 +461,7 @@ impl ExperimentConfig {
     /// `current teammates` when the actors' loss takes the teammates' current
     /// policies ([`Teammates::Current`]), `global actors`
     /// ([`ActorView::Global`]) and `shared critic (trunk)`
-    /// ([`CriticSharing`]), so that an ablation is never pooled with the
+    /// ([`CriticTying`]), so that an ablation is never pooled with the
     /// method's runs; and by the algorithm and the training engine when they
     /// are not the paper's (MADDPG, rapier here), e.g. `Dense, MATD3, trained
     /// on MuJoCo`, so that a report never pools runs of two algorithms or two
@@ -482,9 +482,9 @@ impl ExperimentConfig {
             label.push_str(", global actors");
         }
         match self.networks.critic {
-            CriticSharing::PerAgent => {}
-            CriticSharing::SharedTrunk => label.push_str(", shared critic trunk"),
-            CriticSharing::Shared => label.push_str(", shared critic"),
+            CriticTying::PerAgent => {}
+            CriticTying::SharedTrunk => label.push_str(", shared critic trunk"),
+            CriticTying::Shared => label.push_str(", shared critic"),
         }
         match self.algorithm {
             AlgorithmKind::Maddpg => {}

@@ -82,13 +82,16 @@ pub struct NetworkConfig {
     /// How the agents' networks are stacked into batched modules.
     #[config(default = "Stacking::Auto")]
     pub stacking: Stacking,
-    /// Which parts of the critics the agents share (default: none, the paper's MAGCLA).
-    #[config(default = "CriticSharing::PerAgent")]
-    pub critic: CriticSharing,
+    /// Which parts of the critics the agents hold once for all (default: none, the paper's MAGCLA).
+    #[config(default = "CriticTying::PerAgent")]
+    pub critic: CriticTying,
 }
 
-/// Which parts of the critics the agents share: an ablation of the paper's
-/// design, in which every agent trains its own critic (MAGCLA, section III).
+/// Which parts of the critics the agents hold once for all of them (tied
+/// weights): an ablation of the paper's design, in which every agent trains
+/// its own critic (MAGCLA, section III). Named so that "sharing" means only
+/// information sharing (eq. 8), which mixes networks that stay the agents'
+/// own; until 2026-11-27 this was `CriticSharing` (still an alias).
 ///
 /// Every critic sees the same input, the global observation, the goal and the
 /// joint action, so a shared part computes one value for all agents:
@@ -107,7 +110,7 @@ pub struct NetworkConfig {
 /// (a shared trunk is already at consensus).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
-pub enum CriticSharing {
+pub enum CriticTying {
     /// Each agent its own critic (the paper's MAGCLA; default).
     #[default]
     PerAgent,
@@ -117,15 +120,15 @@ pub enum CriticSharing {
     Shared,
 }
 
-impl CriticSharing {
+impl CriticTying {
     /// How many of the critic's `layers + 1` linear layers (input first) are
     /// held once for all agents.
     ///
     /// ```
-    /// use fmsr_nn::CriticSharing;
-    /// assert_eq!(CriticSharing::PerAgent.shared_layers(3), 0);
-    /// assert_eq!(CriticSharing::SharedTrunk.shared_layers(3), 3);
-    /// assert_eq!(CriticSharing::Shared.shared_layers(3), 4);
+    /// use fmsr_nn::CriticTying;
+    /// assert_eq!(CriticTying::PerAgent.shared_layers(3), 0);
+    /// assert_eq!(CriticTying::SharedTrunk.shared_layers(3), 3);
+    /// assert_eq!(CriticTying::Shared.shared_layers(3), 4);
     /// ```
     #[must_use]
     pub fn shared_layers(self, layers: usize) -> usize {
@@ -149,7 +152,7 @@ impl CriticSharing {
 /// `o_i` is agent `i`'s actor input ([`fmsr_core::agent::ObservationLayout`]:
 /// its observation, the goal, its neighbours' previous actions), normalised as
 /// its actor's; `N(i)` its neighbours in that layout. A critic that does not
-/// see the global input needs a critic per agent ([`CriticSharing::PerAgent`]).
+/// see the global input needs a critic per agent ([`CriticTying::PerAgent`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum CriticView {
@@ -203,7 +206,7 @@ impl NetworkConfig {
             ("networks.adam_epsilon", self.adam_epsilon.is_finite() && self.adam_epsilon > 0.0, "must be > 0"),
             (
                 "networks.critic",
-                self.critic == CriticSharing::PerAgent || self.stacking != Stacking::PerAgent,
+                self.critic == CriticTying::PerAgent || self.stacking != Stacking::PerAgent,
                 "shared critics need the agents in one stack: set networks.stacking to \"all\" or \"auto\"",
             ),
         ])

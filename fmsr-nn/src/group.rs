@@ -283,7 +283,7 @@ pub(crate) struct GroupSpec<'a> {
     pub(crate) layers: usize,
     pub(crate) seed: u64,
     pub(crate) critics: usize,
-    /// The critics' leading layers held once for the group ([`crate::CriticSharing`]).
+    /// The critics' leading layers held once for the group ([`crate::CriticTying`]).
     pub(crate) critic_shared: usize,
     pub(crate) head_mult: usize,
     /// Whether information sharing mixes the actors' / critics' trunks (they then start equal).

@@ -92,10 +92,11 @@ mod workers;
 pub use any::{AlgorithmKind, AnyLearner};
 /// burn's device type, re-exported for [`LearnerParts::with_device`] (e.g. `Device::flex()`).
 pub use burn::tensor::Device;
-pub use config::{
-    CriticSharing, CriticView, MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, Stacking, Teammates,
-};
+pub use config::{CriticTying, CriticView, MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, Stacking, Teammates};
 pub use device::{Adapter, DeviceSpec};
+/// The former name of [`CriticTying`].
+#[deprecated(note = "renamed CriticTying: \"sharing\" means information sharing (eq. 8)")]
+pub type CriticSharing = CriticTying;
 pub use error::NnError;
 pub use learner::{BatchTensors, Learner, LearnerParts};
 pub use maddpg::{Maddpg, MaddpgRule};

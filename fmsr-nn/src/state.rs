@@ -267,7 +267,7 @@ impl Learner {
     }
 }
 
-/// Checks that saved critics fit the group's [`crate::CriticSharing`]. The
+/// Checks that saved critics fit the group's [`crate::CriticTying`]. The
 /// state stores every agent's whole critic, so sharing shows in the values:
 /// a layer held once is equal, bit for bit, across the agents, while the
 /// critics of agents that do not share start from draws of their own, and

@@ -1,4 +1,4 @@
-//! Guards `NetworkConfig::critic` (`CriticSharing`), the critic ablation of
+//! Guards `NetworkConfig::critic` (`CriticTying`), the critic ablation of
 //! issue 31: with `SharedTrunk` every agent's critic keeps one trunk through
 //! learning while the heads stay their own; with `Shared` every agent reads
 //! one value; both save and load (a loaded learner updates as the saved one), refuse states of the other
@@ -10,14 +10,14 @@ mod common;
 use fmsr_core::sharing::{ShareMode, ShareTarget, Sharing};
 use fmsr_graph::{Graph, MetropolisHastings};
 use fmsr_nn::prelude::*;
-use fmsr_nn::{CriticSharing, NnError};
+use fmsr_nn::{CriticTying, NnError};
 
-fn net(critic: CriticSharing, seed: u64) -> NetworkConfig {
+fn net(critic: CriticTying, seed: u64) -> NetworkConfig {
     NetworkConfig::new().with_hidden(16).with_layers(2).with_seed(seed).with_critic(critic)
 }
 
 /// A MADDPG of three agents after four gradient steps.
-fn trained(critic: CriticSharing) -> (fmsr_core::agent::ObservationLayout, Maddpg) {
+fn trained(critic: CriticTying) -> (fmsr_core::agent::ObservationLayout, Maddpg) {
     let layout = common::layout(&[2, 1, 2], 5, 2);
     let mut l = Maddpg::new(common::parts(&layout, net(critic, 3), 0.9), MaddpgConfig::new()).unwrap();
     for s in 0..4 {
@@ -38,7 +38,7 @@ fn q_values(layout: &fmsr_core::agent::ObservationLayout, l: &Maddpg) -> Vec<Vec
 
 #[test]
 fn a_shared_trunk_stays_one_while_the_heads_stay_their_own() {
-    let (layout, l) = trained(CriticSharing::SharedTrunk);
+    let (layout, l) = trained(CriticTying::SharedTrunk);
     let (whole, trunks) = critics(&l);
     assert!(trunks.iter().all(|t| t == &trunks[0]) && !trunks[0].is_empty());
     assert!(whole.iter().all(|w| w[..16 * 2 + 16] == whole[0][..16 * 2 + 16]), "the input layer is shared");
@@ -49,7 +49,7 @@ fn a_shared_trunk_stays_one_while_the_heads_stay_their_own() {
 
 #[test]
 fn a_shared_critic_gives_every_agent_one_value() {
-    let (layout, l) = trained(CriticSharing::Shared);
+    let (layout, l) = trained(CriticTying::Shared);
     let (whole, _) = critics(&l);
     assert!(whole.iter().all(|w| w == &whole[0]));
     let q = q_values(&layout, &l);
@@ -58,7 +58,7 @@ fn a_shared_critic_gives_every_agent_one_value() {
 
 #[test]
 fn per_agent_critics_keep_their_own_trunks() {
-    let (_, l) = trained(CriticSharing::PerAgent);
+    let (_, l) = trained(CriticTying::PerAgent);
     let (_, trunks) = critics(&l);
     assert!(trunks[1..].iter().all(|t| t != &trunks[0]));
 }
@@ -67,7 +67,7 @@ fn per_agent_critics_keep_their_own_trunks() {
 fn shared_critics_save_and_load_and_refuse_the_other_design() {
     let layout = common::layout(&[2, 3, 1], 7, 3);
     let rewards = common::L1Rewards(3);
-    for critic in [CriticSharing::SharedTrunk, CriticSharing::Shared] {
+    for critic in [CriticTying::SharedTrunk, CriticTying::Shared] {
         for kind in AlgorithmKind::ALL {
             let mut a = common::learner(kind, &layout, net(critic, 21));
             for e in 0..2 {
@@ -83,7 +83,7 @@ fn shared_critics_save_and_load_and_refuse_the_other_design() {
             let x = common::inputs(&layout, 4, 7);
             let (xa, xb) = (a.act(&x, 4, ActMode::Explore).unwrap(), b.act(&x, 4, ActMode::Explore).unwrap());
             assert_eq!(format!("{xa:?}"), format!("{xb:?}"), "{kind:?} {critic:?}");
-            let mut own = common::learner(kind, &layout, net(CriticSharing::PerAgent, 99).with_stacking(Stacking::All));
+            let mut own = common::learner(kind, &layout, net(CriticTying::PerAgent, 99).with_stacking(Stacking::All));
             assert!(matches!(own.load_state(&bytes), Err(NnError::StateMismatch { .. })), "{kind:?} {critic:?}");
             let per_agent = own.save_state(true).unwrap();
             assert!(matches!(b.load_state(&per_agent), Err(NnError::StateMismatch { .. })), "{kind:?} {critic:?}");
@@ -94,7 +94,7 @@ fn shared_critics_save_and_load_and_refuse_the_other_design() {
 #[test]
 fn impossible_settings_are_typed_errors() {
     let layout = common::layout(&[2, 1, 2], 5, 2);
-    let stacked = net(CriticSharing::Shared, 0).with_stacking(Stacking::PerAgent);
+    let stacked = net(CriticTying::Shared, 0).with_stacking(Stacking::PerAgent);
     let err = Maddpg::new(common::parts(&layout, stacked, 0.9), MaddpgConfig::new()).unwrap_err();
     assert!(matches!(err, NnError::InvalidConfig { key: "networks.critic", .. }), "{err}");
     let sharing = Sharing {
@@ -102,7 +102,7 @@ fn impossible_settings_are_typed_errors() {
         mode: ShareMode::Parameters,
         target: ShareTarget::Critics,
     };
-    let parts = common::parts(&layout, net(CriticSharing::SharedTrunk, 0), 0.9).with_sharing(Some(sharing));
+    let parts = common::parts(&layout, net(CriticTying::SharedTrunk, 0), 0.9).with_sharing(Some(sharing));
     let err = Maddpg::new(parts, MaddpgConfig::new()).unwrap_err();
     assert!(matches!(err, NnError::Sharing { .. }), "{err}");
 }

@@ -36,7 +36,7 @@ use fmsr_core::sharing::{InformationSharing, NetworkKind, Sharing};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::config::{CriticSharing, CriticView, NetworkConfig, Stacking};
+use crate::config::{CriticTying, CriticView, NetworkConfig, Stacking};
 use crate::error::{NnError, check_values};
 use crate::group::{Group, GroupSpec};
 use crate::normalizer::Normalizer;
@@ -210,7 +210,7 @@ fn group_ranges(net: &NetworkConfig, agents: usize, device: &Device) -> Vec<std:
     let per_agent = match net.stacking {
         Stacking::PerAgent => true,
         Stacking::All => false,
-        Stacking::Auto => *device == Device::flex() && net.critic == CriticSharing::PerAgent,
+        Stacking::Auto => *device == Device::flex() && net.critic == CriticTying::PerAgent,
     };
     if per_agent { (0..agents).map(|i| i..i + 1).collect() } else { std::iter::once(0..agents).collect() }
 }
@@ -238,7 +238,7 @@ impl Learner {
         check_parts(&layout, gamma, sharing.as_ref())?;
         let spec = layout.spec().clone();
         let sharing = InformationSharing::new(sharing);
-        if net.critic != CriticSharing::PerAgent && sharing.shares(NetworkKind::Critics) {
+        if net.critic != CriticTying::PerAgent && sharing.shares(NetworkKind::Critics) {
             return Err(NnError::Sharing {
                 reason: format!(
                     "networks.critic = {:?} already shares the critics' trunk; information sharing can mix only the actors",
@@ -246,7 +246,7 @@ impl Learner {
                 ),
             });
         }
-        if view != CriticView::Global && net.critic != CriticSharing::PerAgent {
+        if view != CriticView::Global && net.critic != CriticTying::PerAgent {
             return Err(NnError::InvalidConfig {
                 key: "networks.critic",
                 reason: format!(
