@@ -217,14 +217,21 @@ impl Group {
     }
 
     /// Every agent's critic input with its own action replaced by `mu`
-    /// (`[A, n, d_max]`, with gradient) on the autodiff device.
-    pub(crate) fn critic_input_own(&self, mu: Tensor<3>, b: &crate::learner::BatchTensors, g: usize) -> Tensor<3> {
+    /// (`[A, n, d_max]`, with gradient) on the autodiff device, for a batch's
+    /// `[x, g]` rows `og`, joint actions `actions` and the group's padded
+    /// actor inputs `x`.
+    pub(crate) fn critic_input_own(
+        &self,
+        mu: Tensor<3>,
+        og: &Tensor<2>,
+        actions: &Tensor<2>,
+        x: &GroupBatch,
+    ) -> Tensor<3> {
         match &self.critic_view {
-            CriticInput::Global => self.joint.with_own(mu, &b.og, &b.actions),
+            CriticInput::Global => self.joint.with_own(mu, og, actions),
             CriticInput::Local { select, width } => {
-                let joint = self.joint.own_joint(mu, &b.actions);
-                Tensor::from_inner(pad(b.groups[g].x_now.clone(), *width))
-                    + joint.matmul(Tensor::from_inner(*select.clone()))
+                let joint = self.joint.own_joint(mu, actions);
+                Tensor::from_inner(pad(x.x_now.clone(), *width)) + joint.matmul(Tensor::from_inner(*select.clone()))
             }
         }
     }

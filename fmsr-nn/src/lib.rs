@@ -104,8 +104,8 @@ pub use masac::{Masac, MasacRule};
 pub use matd3::{Matd3, Matd3Rule};
 pub use net::{Critics, NetShape, StackLayout, StackedLinear, StackedMlp, StackedMlpConfig};
 pub use normalizer::Normalizer;
-pub use off_policy::{OffPolicy, RuleState, StepLosses, UpdateRule};
-pub use state::{RescueLevel, policy_from_learner_state, rescue_state};
+pub use off_policy::{OffPolicy, StepLosses, UpdateRule};
+pub use state::{RescueLevel, RuleState, policy_from_learner_state, rescue_state};
 
 /// Everything needed for typical use: `use fmsr_nn::prelude::*;`.
 pub mod prelude {

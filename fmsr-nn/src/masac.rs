@@ -29,7 +29,8 @@ use crate::error::NnError;
 use crate::explore::{gaussian, randomize};
 use crate::group::to_vec1;
 use crate::learner::{BatchTensors, Learner, LearnerParts};
-use crate::off_policy::{OffPolicy, RuleState, StepLosses, UpdateRule};
+use crate::off_policy::{OffPolicy, StepLosses, UpdateRule};
+use crate::state::RuleState;
 
 const HALF_LOG_TAU: f32 = 0.918_938_5; // log(2 pi) / 2
 
@@ -212,7 +213,7 @@ impl UpdateRule for MasacRule {
             let head = group.nets.actors.forward(Tensor::from_inner(b.groups[g].x_now.clone()));
             let mask = Tensor::from_inner(group.joint.mask.clone());
             let (a, lp) = sample(head, Tensor::from_inner(eps[g].clone()), mask, bounds);
-            let input = group.critic_input_own(a, b, g);
+            let input = group.critic_input_own(a, &b.og, &b.actions, &b.groups[g]);
             let q = critics.nets[0].forward(input.clone()).min_pair(critics.nets[1].forward(input));
             let m = to_vec1(lp.clone().mean_dim(1).reshape([group.len()]), "log pi")?;
             if let Ok(mut v) = mean_logp.lock() {

@@ -23,19 +23,14 @@
 //! counts the steps, applies information sharing and worker averaging inside
 //! the steps it offers, moves the targets and saves the state.
 
-use std::ops::RangeInclusive;
-
 use fmsr_core::algorithm::{Algorithm, RewardModel, UpdateStats};
 use fmsr_core::policy::{ActMode, Policy, PolicyOutput, PolicyState};
 use fmsr_core::replay::Episode;
 
-use serde::de::DeserializeOwned;
-use serde::{Deserialize, Serialize};
-
 use crate::config::CriticView;
 use crate::error::NnError;
 use crate::learner::{BatchTensors, Learner, LearnerParts};
-use crate::state::SavedRule;
+use crate::state::{RuleState, SavedRule};
 
 /// What distinguishes one off-policy algorithm; see the [module docs](self).
 ///
@@ -122,52 +117,6 @@ pub trait UpdateRule: std::fmt::Debug + Clone + Send + 'static {
             expected: "no values".into(),
             found: values.len().to_string(),
         })
-    }
-}
-
-/// An update rule's own state as a learner state holds it: a version of the
-/// rule's choosing and the postcard bytes of a serde value.
-///
-/// ```
-/// use fmsr_nn::RuleState;
-/// let s = RuleState::encode(2, &vec![0.5f64, 1.0])?;
-/// assert_eq!(s.decode::<Vec<f64>>("demo", 1..=2)?, vec![0.5, 1.0]);
-/// assert!(s.decode::<Vec<f64>>("demo", 3..=3).is_err(), "a version this reader does not know");
-/// # Ok::<(), fmsr_nn::NnError>(())
-/// ```
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct RuleState {
-    /// The layout's version, checked by the rule that reads it.
-    pub version: u32,
-    /// postcard bytes of the value.
-    pub bytes: Vec<u8>,
-}
-
-impl RuleState {
-    /// `value` as version `version`.
-    ///
-    /// # Errors
-    /// [`NnError::Backend`] when the value does not encode.
-    pub fn encode<T: Serialize>(version: u32, value: &T) -> Result<Self, NnError> {
-        let bytes = postcard::to_allocvec(value)
-            .map_err(|e| NnError::Backend { what: "update rule state", reason: e.to_string() })?;
-        Ok(Self { version, bytes })
-    }
-
-    /// The value, when its version is one of `versions`; `rule` names the rule in errors.
-    ///
-    /// # Errors
-    /// [`NnError::StateMismatch`] for another version, [`NnError::CorruptState`] for bytes that do not decode.
-    pub fn decode<T: DeserializeOwned>(&self, rule: &str, versions: RangeInclusive<u32>) -> Result<T, NnError> {
-        if !versions.contains(&self.version) {
-            return Err(NnError::StateMismatch {
-                what: format!("{rule} state version"),
-                expected: format!("{} to {}", versions.start(), versions.end()),
-                found: self.version.to_string(),
-            });
-        }
-        postcard::from_bytes(&self.bytes)
-            .map_err(|e| NnError::CorruptState { offset: 0, reason: format!("{rule} state: {e}") })
     }
 }
 

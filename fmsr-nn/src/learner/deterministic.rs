@@ -55,7 +55,7 @@ impl Learner {
             let (joint, na) = (&group.joint, group.len());
             let mu = tanh(group.nets.actors.forward(Tensor::from_inner(b.groups[g].x_now.clone())))
                 * Tensor::from_inner(joint.mask.clone());
-            let q = critics.nets[0].forward(group.critic_input_own(mu.clone(), b, g));
+            let q = critics.nets[0].forward(group.critic_input_own(mu.clone(), &b.og, &b.actions, &b.groups[g]));
             let penalty = mu.square().sum_dim(2).mean_dim(1).reshape([na]) * Tensor::from_inner(joint.inv_dim.clone());
             Ok(q.mean_dim(1).reshape([na]).neg() + penalty.mul_scalar(action_l2 as f32))
         })
