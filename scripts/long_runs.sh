@@ -3,6 +3,7 @@
 # across sessions that each end every process, in a home outside the work tree.
 #
 #   scripts/long_runs.sh start CONFIG...   copy the release binary, start each run
+#   FMSR_LONG_RUNS_BIN=BIN scripts/long_runs.sh start CONFIG...   start with an earlier run's binary in the home's bin/ (one build for both arms of a pair)
 #   scripts/long_runs.sh resume            restart every unfinished run, from its rescue point where the home lost it (first thing every session)
 #   scripts/long_runs.sh status            epochs, env steps, success, s/epoch, sessions left, alive, next snapshot
 #   scripts/long_runs.sh record            evaluate new snapshots, copy small files into docs/
@@ -29,7 +30,8 @@
 # the same run exits at once; `fmsr train` from builds after 2026-11-25 also
 # refuses a run directory another process writes.
 #
-# `record` evaluates, with the work tree's current build, each snapshot not yet
+# `record` evaluates, with the work tree's current release build (with MuJoCo,
+# as `finish`'s, since a run trained there is evaluated there), each snapshot not yet
 # evaluated on the fixed test set (the config's [eval]: 100 episodes at 0.4 rad
 # in the paper's configs) and on the validation episodes (seeds disjoint from
 # the test set's, used to choose a snapshot), copies config, provenance,
@@ -237,13 +239,20 @@ start() {
     cat > "$dir/keeper.env" << EOF
 BIN=$bin
 EPOCHS=$epochs
-COMMIT=$(git rev-parse HEAD)
+COMMIT=$(bin_commit "$bin")
 CONFIG=$config
 START_DIR=$repo
 STARTED=$(date -u +%FT%TZ)
 EOF
     launch "$dir"
   done
+}
+
+# The commit a home binary was built from (its name holds the short hash).
+bin_commit() {
+  local short
+  short=$(basename "$1" | sed -n 's/^fmsr-\([0-9a-f]*\).*/\1/p')
+  git -C "$repo" rev-parse "$short^{commit}"
 }
 
 runs() { for d in "$home"/*/; do [ -f "$d/keeper.env" ] && echo "${d%/}"; done; }
@@ -254,6 +263,17 @@ runs() { for d in "$home"/*/; do [ -f "$d/keeper.env" ] && echo "${d%/}"; done; 
 home_binary() {
   cd "$repo"
   local features=() bin
+  if [ -n "${FMSR_LONG_RUNS_BIN:-}" ]; then
+    # The binary of a run started earlier, so that the arms of one comparison
+    # run one build (`start` records its commit, not the work tree's).
+    [ -x "$FMSR_LONG_RUNS_BIN" ] || die "FMSR_LONG_RUNS_BIN=$FMSR_LONG_RUNS_BIN is not an executable"
+    case $FMSR_LONG_RUNS_BIN in "$home"/bin/fmsr-*) ;; *) die "FMSR_LONG_RUNS_BIN must be one of $home/bin/" ;; esac
+    if grep -qs '^engine *= *"mujoco"' "$@"; then
+      case $FMSR_LONG_RUNS_BIN in *-mujoco) ;; *) die "$FMSR_LONG_RUNS_BIN has no MuJoCo, which $* asks for" ;; esac
+    fi
+    echo "$FMSR_LONG_RUNS_BIN"
+    return
+  fi
   if grep -qs '^engine *= *"mujoco"' "$@"; then
     scripts/setup_mujoco.sh >&2
     features=(--features mujoco)
@@ -389,8 +409,7 @@ archive_earlier_record() {
 # Evaluates, with the work tree's release build, every snapshot not yet
 # evaluated, and copies each run's small files into the records.
 evaluate_snapshots() {
-  local fmsr=$repo/target/release/fmsr built=0 dir name out snap k f
-  build_once() { [ "$built" = 1 ] || { cargo build --release --bin fmsr >&2; built=1; }; }
+  local dir name out snap k f
   for dir in $(runs); do
     name=$(basename "$dir")
     out=$records/$name
@@ -406,7 +425,6 @@ evaluate_snapshots() {
     for snap in "$dir"/snapshots/epoch-*.fmsr; do
       [ -f "$snap" ] || continue
       k=$(basename "$snap" .fmsr)
-      if [ ! -f "$out/snapshots/$k.test.json" ] || [ ! -f "$out/snapshots/$k.validation.json" ]; then build_once; fi
       if [ ! -f "$out/snapshots/$k.test.json" ]; then
         echo "$name $k: the test set"
         nice -n 5 "$fmsr" eval "$snap" --out "$out/snapshots/$k.test.json" > "$out/snapshots/$k.test.log" 2>&1
@@ -423,7 +441,7 @@ evaluate_snapshots() {
 # Each run's rescue point (from its last checkpoint) and its best policy on
 # the validation episodes so far, into the records and pretrained/.
 rescue_and_best() {
-  local fmsr=$repo/target/release/fmsr dir name out epoch best pre snap
+  local dir name out epoch best pre snap
   for dir in $(runs); do
     name=$(basename "$dir")
     out=$records/$name
@@ -457,9 +475,20 @@ write_section() {
     --records "$records" --pretrained "$pretrained" --commit "$(git -C "$repo" rev-parse --short HEAD)"
 }
 
+# Builds the work tree's release binary with MuJoCo, the one every evaluation
+# and rescue point of `record` and `finish` uses (a run trained on MuJoCo is
+# evaluated on its own engine by default), and points $fmsr at it.
+work_tree_binary() {
+  cd "$repo"
+  scripts/setup_mujoco.sh >&2
+  cargo build --release --features mujoco --bin fmsr >&2
+  export LD_LIBRARY_PATH=$repo/target/mujoco/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+  fmsr=$repo/target/release/fmsr
+}
+
 record() {
   [ -d "$home" ] || die "no long-run home at $home (if it was lost, \`$0 lost\` records that and rewrites the section)"
-  cd "$repo"
+  work_tree_binary
   evaluate_snapshots
   rescue_and_best
   write_section
@@ -542,12 +571,9 @@ finish() {
     finished "$dir" || waiting+=("$(basename "$dir") ($(epochs_done "$dir") of $(planned "$dir") epochs)")
   done
   [ ${#waiting[@]} -eq 0 ] || die "not every run has ended: ${waiting[*]}; finish waits for all"
+  # One build for every evaluation: rapier and MuJoCo alike.
+  work_tree_binary
   evaluate_snapshots
-  # One build for every final evaluation: rapier and MuJoCo alike.
-  scripts/setup_mujoco.sh
-  cargo build --release --features mujoco --bin fmsr
-  export LD_LIBRARY_PATH=$repo/target/mujoco/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
-  fmsr=$repo/target/release/fmsr
   for dir in $(runs); do
     finish_run "$dir"
     policies+=("$pretrained/$(basename "$dir")_paper")

@@ -682,6 +682,32 @@ mod label_tests {
         (base.clone(), changed, [label(path), label(&root.join(base))])
     }
 
+    // Guards the paper-budget pair on MuJoCo (issue 53, item 4): each config
+    // in configs/mujoco/ is the paper's config of its name with `engine`
+    // changed, and with the shadow reward's `alpha` (chosen by E3) at most.
+    #[test]
+    fn paper_configs_on_mujoco_change_the_engine_alone() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
+        let files = toml_files(&root.join("mujoco"));
+        assert!(!files.is_empty());
+        for path in files {
+            let paper = root.join(path.file_name().unwrap());
+            let (a, b) = (settings(&path), settings(&paper));
+            let changed: std::collections::BTreeSet<_> =
+                a.keys().chain(b.keys()).filter(|k| a.get(*k) != b.get(*k)).cloned().collect();
+            assert!(changed.contains("engine"), "{}", path.display());
+            assert!(
+                changed.iter().all(|k| k == "engine" || k == "trainer.shadow.alpha"),
+                "{} against {}: {changed:?}",
+                path.display(),
+                paper.display()
+            );
+            assert_eq!(a["engine"].as_str(), Some("mujoco"), "{}", path.display());
+            let name = |p: &Path| ExperimentConfig::load(p).unwrap().name;
+            assert_eq!(name(&path), name(&paper), "{}: the run keeps the paper config's name", path.display());
+        }
+    }
+
     // Guards what the ablations of docs/results.md claim: each config in
     // configs/lite/ablation/ is its method's lite config with one setting
     // changed, each in ablation/combined/ changes two or more of those
