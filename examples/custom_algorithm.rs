@@ -20,17 +20,24 @@
 //! (eq. 7, shadow rewards included), normalisers, information sharing over
 //! the graph (eq. 8) and worker averaging inside the steps, polyak targets
 //! (eq. 9), saved states with Adam's moments (resume, rescue points) and the
-//! policy state (actors and normalisers, as policy files hold them). The
-//! `fmsr` command does not know the rule by name yet: it builds the three
-//! algorithms of its configs (issue 54, item 2, the registry).
+//! policy state (actors and normalisers, as policy files hold them).
+//!
+//! Its settings are a config section: with [`ConfiguredRule`] and one call,
+//! `fmsr::algorithms::register::<IddpgRule>()`, experiment files say
+//! `algorithm = "iddpg"` and `[iddpg]`, and fmsr's own command
+//! ([`fmsr::cli`]) trains, resumes, exports, evaluates and reports it.
 //!
 //! `cargo run --release --example custom_algorithm` trains it on TeamReach
-//! with information sharing; `tests/custom_algorithm.rs` checks that it
-//! learns there and runs a Shadow Hand epoch.
+//! with information sharing; `cargo run --release --example custom_algorithm
+//! -- train --config my_iddpg.toml` is the `fmsr` command with IDDPG
+//! registered. `tests/custom_algorithm.rs` checks that it learns TeamReach,
+//! and trains, resumes, exports and evaluates a Shadow Hand run by name.
 
 use fmsr::core::policy::PolicyOutput;
 use fmsr::experiment::ExperimentConfig;
-use fmsr::nn::{BatchTensors, CriticView, Learner, NnError, OffPolicy, StepLosses, Teammates, UpdateRule};
+use fmsr::nn::{
+    BatchTensors, ConfiguredRule, CriticView, Learner, NnError, OffPolicy, StepLosses, Teammates, UpdateRule,
+};
 use fmsr::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -54,7 +61,8 @@ impl Default for IddpgConfig {
     }
 }
 
-/// IDDPG's update rule: its settings are all it holds.
+/// IDDPG's update rule: its settings are all it holds, and they are the
+/// `[iddpg]` section of experiment configs.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct IddpgRule {
     /// The settings.
@@ -96,6 +104,18 @@ impl UpdateRule for IddpgRule {
 
     fn targets(&self) -> (f64, bool) {
         (self.config.polyak, true)
+    }
+}
+
+impl ConfiguredRule for IddpgRule {
+    type Config = IddpgConfig;
+
+    fn default_config() -> IddpgConfig {
+        IddpgConfig::default()
+    }
+
+    fn from_config(config: IddpgConfig) -> Self {
+        Self { config }
     }
 }
 
@@ -153,9 +173,14 @@ pub fn on_experiment<E: Env + Send>(config: &ExperimentConfig, envs: Vec<E>) -> 
     Ok(config.build_trainer_with(envs, |parts| Ok(Iddpg::with_rule(parts, IddpgRule::default())?))?)
 }
 
-fn main() -> anyhow::Result<()> {
+/// With arguments, the `fmsr` command with IDDPG registered; without, IDDPG on TeamReach.
+fn main() -> anyhow::Result<std::process::ExitCode> {
+    if std::env::args().len() > 1 {
+        fmsr::algorithms::register::<IddpgRule>()?;
+        return Ok(fmsr::cli::main());
+    }
     println!("IDDPG on TeamReach, actors sharing over a ring:");
     let (_, success) = train_team_reach(1, 12)?;
     println!("success on 100 held-out episodes: {success:.2}");
-    Ok(())
+    Ok(std::process::ExitCode::SUCCESS)
 }

@@ -16,6 +16,15 @@ pub enum ExperimentError {
         /// What is wrong.
         reason: String,
     },
+    /// An algorithm cannot be registered under its name
+    /// ([`crate::algorithms::register`]).
+    #[error("cannot register the algorithm `{name}`: {reason}")]
+    Register {
+        /// The rule's name.
+        name: String,
+        /// Why not.
+        reason: String,
+    },
     /// A configuration value is wrong.
     #[error("config: `{key}`: {reason}")]
     Config {
@@ -93,6 +102,15 @@ pub enum ExperimentError {
         what: String,
         /// Why it failed.
         reason: String,
+    },
+    /// What a command was doing when another error stopped it.
+    #[error("{what}: {source}")]
+    Context {
+        /// What was being done (`reading the run's config.toml`).
+        what: String,
+        /// The error.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
     },
     /// A core error (trainer, checkpoint, graph).
     #[error(transparent)]

@@ -6,7 +6,7 @@
 //! ```toml
 //! name = "block_dense_fmsr_is_quick"
 //! method = "dense_fmsr_is"      # dense_fmsr_is | dense_fmsr | dense | sparse
-//! algorithm = "maddpg"          # maddpg | matd3 | masac
+//! algorithm = "maddpg"          # maddpg | matd3 | masac | one registered by your crate
 //! engine = "rapier"             # rapier | mujoco
 //! device = "cpu"
 //!
@@ -38,12 +38,18 @@
 //! under `algorithm = "maddpg"`). The discount is `trainer.gamma`, used by the
 //! occupancy estimate and the critics alike.
 //!
+//! `algorithm` names an entry of the [registry](crate::algorithms): the
+//! three of this crate, and any rule a user's crate registered; its section
+//! is read against that rule's settings.
+//!
 //! A run's `config.toml` is the resolved experiment: besides what its file
 //! said, it names every setting of the chosen algorithm's section with the
 //! value the run used, so changing a default in a later release never changes
 //! a saved run that is resumed or evaluated.
 
+use std::collections::BTreeMap;
 use std::path::Path;
+use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
@@ -55,9 +61,9 @@ use fmsr_envs::shadow_hand::{GoalDistance, ShadowHandConfig};
 
 pub use crate::error::ExperimentError;
 use fmsr_graph::Graph;
-use fmsr_nn::{
-    AlgorithmKind, CriticTying, Device, DeviceSpec, MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, Teammates,
-};
+use fmsr_nn::{ConfiguredRule, CriticTying, Device, DeviceSpec, NetworkConfig, Teammates};
+
+use crate::algorithms;
 
 /// The timestep of the Shadow Hand model (s); one env step is `substeps` of them.
 pub const MODEL_TIMESTEP: f64 = 0.002;
@@ -187,9 +193,10 @@ pub struct ExperimentConfig {
     /// One of the paper's four configurations. It decides the task reward,
     /// whether shadow rewards are on and whether agents share information.
     pub method: Method,
-    /// The learning algorithm (default MADDPG, the paper's).
-    #[serde(default)]
-    pub algorithm: AlgorithmKind,
+    /// The learning algorithm by its registered name
+    /// ([`crate::algorithms`]; default `"maddpg"`, the paper's).
+    #[serde(default = "default_algorithm")]
+    pub algorithm: String,
     /// The physics engine.
     #[serde(default)]
     pub engine: Engine,
@@ -211,15 +218,11 @@ pub struct ExperimentConfig {
     /// `trainer.seed + networks.seed`.
     #[serde(default = "NetworkConfig::new")]
     pub networks: NetworkConfig,
-    /// MADDPG's own settings (only with `algorithm = "maddpg"`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub maddpg: Option<MaddpgConfig>,
-    /// MATD3's own settings (only with `algorithm = "matd3"`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub matd3: Option<Matd3Config>,
-    /// MASAC's own settings (only with `algorithm = "masac"`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub masac: Option<MasacConfig>,
+    /// The algorithms' own sections by name, each with every setting
+    /// written out; the chosen algorithm's is the `[<algorithm>]` of the
+    /// file ([`ExperimentConfig::algorithm_config`]).
+    #[serde(skip)]
+    algorithm_sections: BTreeMap<String, toml::Table>,
     /// Information sharing settings (mode, target, mixing weights); only with a
     /// method that shares.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -236,15 +239,14 @@ fn default_device() -> String {
     "cpu".into()
 }
 
+fn default_algorithm() -> String {
+    "maddpg".into()
+}
+
 /// Sections read through burn's `Config` derive, which neither rejects unknown
 /// keys nor fills in defaults when deserialising: (key, default as TOML).
 fn burn_sections() -> Result<Vec<(&'static str, toml::Table)>, toml::ser::Error> {
-    Ok(vec![
-        ("networks", toml::Table::try_from(NetworkConfig::new())?),
-        ("maddpg", toml::Table::try_from(MaddpgConfig::new())?),
-        ("matd3", toml::Table::try_from(Matd3Config::new())?),
-        ("masac", toml::Table::try_from(MasacConfig::new())?),
-    ])
+    Ok(vec![("networks", toml::Table::try_from(NetworkConfig::new())?)])
 }
 
 /// `table[a][b]...` if present.
@@ -301,9 +303,9 @@ fn check_owners(table: &toml::Table) -> Result<(), ExperimentError> {
         );
     }
     let algorithm = text(&["algorithm"]).unwrap_or_else(|| "maddpg".into());
-    for kind in AlgorithmKind::ALL {
-        if kind.key() != algorithm && table.contains_key(kind.key()) {
-            return conflict(kind.key(), format!("`algorithm = \"{algorithm}\"` does not read `[{}]`", kind.key()));
+    for name in algorithms::names() {
+        if name != algorithm && table.contains_key(name) {
+            return conflict(name, format!("`algorithm = \"{algorithm}\"` does not read `[{name}]`"));
         }
     }
     Ok(())
@@ -343,6 +345,19 @@ impl ExperimentConfig {
             ));
         }
         check_owners(&value)?;
+        let algorithm = match value.get("algorithm") {
+            None => default_algorithm(),
+            Some(toml::Value::String(name)) => name.clone(),
+            Some(_) => {
+                return Err(parse_err("`algorithm` must be a string, the name of a registered algorithm".into()));
+            }
+        };
+        let section = match value.remove(&algorithm) {
+            None => None,
+            Some(toml::Value::Table(section)) => Some(section),
+            Some(_) => return Err(parse_err(format!("`{algorithm}` must be a table"))),
+        };
+        let settings = algorithms::find(&algorithm)?.resolve(section.as_ref()).map_err(parse_err)?;
         for (key, defaults) in burn_sections().map_err(|e| parse_err(e.to_string()))? {
             let Some(section) = value.get_mut(key) else { continue };
             let table = section.as_table().ok_or_else(|| parse_err(format!("`{key}` must be a table")))?;
@@ -357,7 +372,9 @@ impl ExperimentConfig {
             }
             *section = toml::Value::Table(merged);
         }
-        let config = ExperimentConfig::deserialize(toml::Value::Table(value)).map_err(|e| parse_err(e.to_string()))?;
+        let mut config =
+            ExperimentConfig::deserialize(toml::Value::Table(value)).map_err(|e| parse_err(e.to_string()))?;
+        config.algorithm_sections.insert(algorithm, settings);
         config.validate()?;
         Ok(config.with_sections_written())
     }
@@ -404,6 +421,8 @@ impl ExperimentConfig {
     pub fn to_toml(&self) -> Result<String, ExperimentError> {
         let err = |e: toml::ser::Error| ExperimentError::Encode { what: "config.toml", reason: e.to_string() };
         let mut table = toml::Table::try_from(self.clone().with_sections_written()).map_err(err)?;
+        let (_, settings) = self.algorithm_entry()?;
+        table.insert(self.algorithm.clone(), toml::Value::Table(settings));
         if let Some(toml::Value::Table(env)) = table.get_mut("env") {
             env.remove("reward");
         }
@@ -427,11 +446,8 @@ impl ExperimentConfig {
         self.trainer.validate()?;
         self.replay.validate()?;
         self.networks.validate()?;
-        match self.algorithm {
-            AlgorithmKind::Maddpg => self.maddpg_config().validate()?,
-            AlgorithmKind::Matd3 => self.matd3_config().validate()?,
-            AlgorithmKind::Masac => self.masac_config().validate()?,
-        }
+        let (entry, settings) = self.algorithm_entry()?;
+        entry.validate(&settings)?;
         parse_device(&self.device)?;
         if self.networks.critic == CriticTying::Shared && self.method.shadow() {
             return Err(ExperimentError::Config {
@@ -475,7 +491,11 @@ impl ExperimentConfig {
             }
             _ => self.method.label().into(),
         };
-        if self.teammates() == Teammates::Current {
+        // An algorithm this process has not registered (a saved run's,
+        // read where its crate is absent) is labelled by its name.
+        let algorithm = self.algorithm_entry().ok();
+        let teammates = algorithm.as_ref().and_then(|(entry, settings)| entry.teammates(settings).ok());
+        if teammates == Some(Teammates::Current) {
             label.push_str(", current teammates");
         }
         if self.graph.actor_observation == ActorView::Global {
@@ -486,10 +506,13 @@ impl ExperimentConfig {
             CriticTying::SharedTrunk => label.push_str(", shared critic trunk"),
             CriticTying::Shared => label.push_str(", shared critic"),
         }
-        match self.algorithm {
-            AlgorithmKind::Maddpg => {}
-            AlgorithmKind::Matd3 => label.push_str(", MATD3"),
-            AlgorithmKind::Masac => label.push_str(", MASAC"),
+        match algorithm {
+            Some((entry, _)) => {
+                if let Some(name) = entry.label() {
+                    label.push_str(&format!(", {name}"));
+                }
+            }
+            None => label.push_str(&format!(", {}", self.algorithm.to_uppercase())),
         }
         if self.engine == Engine::Mujoco {
             label.push_str(", trained on MuJoCo");
@@ -498,13 +521,12 @@ impl ExperimentConfig {
     }
 
     /// Which teammates' actions the chosen algorithm's actor loss takes.
-    #[must_use]
-    pub fn teammates(&self) -> Teammates {
-        match self.algorithm {
-            AlgorithmKind::Maddpg => self.maddpg_config().teammates,
-            AlgorithmKind::Matd3 => self.matd3_config().teammates,
-            AlgorithmKind::Masac => self.masac_config().teammates,
-        }
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] for an algorithm that is not registered.
+    pub fn teammates(&self) -> Result<Teammates, ExperimentError> {
+        let (entry, settings) = self.algorithm_entry()?;
+        entry.teammates(&settings)
     }
 
     /// The environment config with the method's task reward.
@@ -533,10 +555,8 @@ impl ExperimentConfig {
     /// a default cannot change a run that is resumed or evaluated.
     #[must_use]
     pub fn with_algorithm_section(mut self) -> Self {
-        match self.algorithm {
-            AlgorithmKind::Maddpg => self.maddpg = Some(self.maddpg_config()),
-            AlgorithmKind::Matd3 => self.matd3 = Some(self.matd3_config()),
-            AlgorithmKind::Masac => self.masac = Some(self.masac_config()),
+        if let Ok((_, settings)) = self.algorithm_entry() {
+            self.algorithm_sections.insert(self.algorithm.clone(), settings);
         }
         self
     }
@@ -565,22 +585,50 @@ impl ExperimentConfig {
         self.with_algorithm_section().with_sharing_section()
     }
 
-    /// MADDPG's settings (defaults where the section is absent).
-    #[must_use]
-    pub fn maddpg_config(&self) -> MaddpgConfig {
-        self.maddpg.clone().unwrap_or_else(MaddpgConfig::new)
+    /// The registry's entry of the chosen algorithm and its settings, each
+    /// written out (defaults where the config left them out).
+    pub(crate) fn algorithm_entry(&self) -> Result<(Arc<dyn algorithms::Entry>, toml::Table), ExperimentError> {
+        let entry = algorithms::find(&self.algorithm)?;
+        let settings = entry
+            .resolve(self.algorithm_sections.get(&self.algorithm))
+            .map_err(|reason| ExperimentError::Config { key: self.algorithm.clone(), reason })?;
+        Ok((entry, settings))
     }
 
-    /// MATD3's settings.
-    #[must_use]
-    pub fn matd3_config(&self) -> Matd3Config {
-        self.matd3.clone().unwrap_or_else(Matd3Config::new)
+    /// Rule `R`'s settings in this config (its section, defaults where the
+    /// config left them out), e.g. `config.algorithm_config::<MaddpgRule>()`.
+    ///
+    /// ```
+    /// use fmsr::experiment::ExperimentConfig;
+    /// use fmsr::nn::Matd3Rule;
+    /// let text = "name = \"x\"\nmethod = \"dense\"\nalgorithm = \"matd3\"\n[matd3]\npolicy_delay = 3\n";
+    /// let config = ExperimentConfig::from_toml(text, "x.toml".as_ref())?;
+    /// assert_eq!(config.algorithm_config::<Matd3Rule>()?.policy_delay, 3);
+    /// # Ok::<(), fmsr::error::ExperimentError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] naming the section when its settings are not `R`'s.
+    pub fn algorithm_config<R: ConfiguredRule>(&self) -> Result<R::Config, ExperimentError> {
+        let bad = |reason: String| ExperimentError::Config { key: R::NAME.into(), reason };
+        let mut settings = toml::Table::try_from(R::default_config()).map_err(|e| bad(e.to_string()))?;
+        settings.extend(self.algorithm_sections.get(R::NAME).cloned().unwrap_or_default());
+        R::Config::deserialize(toml::Value::Table(settings)).map_err(|e| bad(e.to_string()))
     }
 
-    /// MASAC's settings.
-    #[must_use]
-    pub fn masac_config(&self) -> MasacConfig {
-        self.masac.clone().unwrap_or_else(MasacConfig::new)
+    /// The config with algorithm `R` and these settings.
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] when `R` is not registered
+    /// ([`algorithms::register`]) or its settings are impossible.
+    pub fn with_algorithm<R: ConfiguredRule>(mut self, config: &R::Config) -> Result<Self, ExperimentError> {
+        let settings = toml::Table::try_from(config)
+            .map_err(|e| ExperimentError::Config { key: R::NAME.into(), reason: e.to_string() })?;
+        self.algorithm = R::NAME.into();
+        self.algorithm_sections.insert(self.algorithm.clone(), settings);
+        let (entry, settings) = self.algorithm_entry()?;
+        entry.validate(&settings)?;
+        Ok(self)
     }
 }
 
@@ -588,7 +636,7 @@ impl ExperimentConfig {
 mod label_tests {
     use std::path::Path;
 
-    use super::{AlgorithmKind, Engine, ExperimentConfig};
+    use super::{Engine, ExperimentConfig};
 
     // Guards the report's grouping: a single agent owning the whole hand is a
     // configuration of its own, never pooled with the paper's six-agent Sparse.
@@ -636,11 +684,14 @@ mod label_tests {
     fn other_algorithms_and_engines_are_labelled_apart() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/lite");
         let method = ExperimentConfig::load(&root.join("block_dense.toml")).unwrap();
-        let with = |algorithm, engine| ExperimentConfig { algorithm, engine, ..method.clone() }.label();
-        assert_eq!(with(AlgorithmKind::Maddpg, Engine::Rapier), "Dense");
-        assert_eq!(with(AlgorithmKind::Matd3, Engine::Rapier), "Dense, MATD3");
-        assert_eq!(with(AlgorithmKind::Masac, Engine::Mujoco), "Dense, MASAC, trained on MuJoCo");
-        assert_eq!(with(AlgorithmKind::Maddpg, Engine::Mujoco), "Dense, trained on MuJoCo");
+        let with = |algorithm: &str, engine| {
+            ExperimentConfig { algorithm: algorithm.into(), engine, ..method.clone() }.label()
+        };
+        assert_eq!(with("maddpg", Engine::Rapier), "Dense");
+        assert_eq!(with("matd3", Engine::Rapier), "Dense, MATD3");
+        assert_eq!(with("masac", Engine::Mujoco), "Dense, MASAC, trained on MuJoCo");
+        assert_eq!(with("maddpg", Engine::Mujoco), "Dense, trained on MuJoCo");
+        assert_eq!(with("not_registered_here", Engine::Rapier), "Dense, NOT_REGISTERED_HERE");
     }
 
     /// `section.key` → value of every setting of a TOML file (the run's name left out).

@@ -5,14 +5,16 @@
 use std::sync::Arc;
 
 use fmsr_core::prelude::*;
-use fmsr_nn::{AlgorithmKind, AnyLearner, LearnerParts, Maddpg, Masac, Matd3};
+use fmsr_nn::{AnyLearner, LearnerParts};
 
 use crate::error::ExperimentError;
 use crate::experiment::{ExperimentConfig, parse_device};
 
 impl ExperimentConfig {
     /// Builds the learner and the trainer on `env`, checking everything that
-    /// needs the environment (agents, features, graph, mixing matrix).
+    /// needs the environment (agents, features, graph, mixing matrix). The
+    /// learner is the registered algorithm that `algorithm` names
+    /// ([`crate::algorithms`]), with the config's settings for it.
     ///
     /// The task reward is the environment's own: `method` sets it only in the
     /// Shadow Hand config of [`ExperimentConfig::env_config`]. Environments
@@ -34,20 +36,16 @@ impl ExperimentConfig {
         envs: Vec<E>,
         comm: Arc<dyn Communicator>,
     ) -> Result<Trainer<E, AnyLearner>, ExperimentError> {
-        self.build_worker_trainer_with(envs, comm, |parts| {
-            Ok(match self.algorithm {
-                AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, self.maddpg_config())?),
-                AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, self.matd3_config())?),
-                AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, self.masac_config())?),
-            })
-        })
+        let (entry, settings) = self.algorithm_entry()?;
+        self.build_worker_trainer_with(envs, comm, |parts| entry.build(&settings, parts))
     }
 
     /// As [`ExperimentConfig::build_trainer`], with the learner that
     /// `learner` builds from the experiment's parts (layout, networks,
     /// replay, discount, information sharing, device) instead of the one
-    /// `algorithm` names: a user's update rule ([`fmsr_nn::UpdateRule`]) trains
-    /// on the experiment's task, shadow rewards and sharing.
+    /// `algorithm` names: any [`Algorithm`] trains on the experiment's task,
+    /// shadow rewards and sharing. (A rule that the configs should name is
+    /// registered instead: [`crate::algorithms::register`].)
     ///
     /// # Errors
     /// As [`ExperimentConfig::build_trainer`], and those of `learner`.

@@ -31,13 +31,17 @@
 //! only its own agent's observation and action, `CriticView::Own`), which
 //! this crate does not ship, as one rule in one short file, and gets HER,
 //! information sharing, worker averaging, resume and policy export from the
-//! crate. [`experiment::ExperimentConfig::build_trainer_with`] trains such a
-//! learner on an experiment's task, shadow rewards and sharing;
-//! `tests/custom_algorithm.rs` checks that it learns TeamReach, resumes
-//! exactly and trains a Shadow Hand epoch.
+//! crate. Its settings are a config section ([`nn::ConfiguredRule`]), and
+//! one call, [`algorithms::register`], lets experiment files name it
+//! (`algorithm = "iddpg"`) and fmsr's own command, [`cli::main`], train,
+//! resume, export, evaluate and report it; `tests/custom_algorithm.rs`
+//! checks that it learns TeamReach, resumes exactly, and runs through the
+//! command by name.
 #![warn(missing_docs)]
 
+pub mod algorithms;
 pub mod artefacts;
+pub mod cli;
 pub mod error;
 pub mod evaluate;
 pub mod experiment;

@@ -32,7 +32,7 @@ fn stepping_threads_do_not_change_the_history() {
             episodes_per_cycle: 4,
             ..common::trainer_config(Method::DenseFmsrIs, 9, 2)
         };
-        let mut t = team_reach_trainer_config(AlgorithmKind::Maddpg, Method::DenseFmsrIs, config);
+        let mut t = team_reach_trainer_config("maddpg", Method::DenseFmsrIs, config);
         t.train(|_, _| Ok(())).unwrap();
         t.history().iter().map(learning_stats).collect::<Vec<_>>()
     };
@@ -54,7 +54,7 @@ fn the_trainer_steps_its_environments_on_trainer_threads() {
             episodes_per_cycle: envs,
             ..common::trainer_config(Method::DenseFmsrIs, 9, 1)
         };
-        team_reach_trainer_config(AlgorithmKind::Maddpg, Method::DenseFmsrIs, config).collector().threads()
+        team_reach_trainer_config("maddpg", Method::DenseFmsrIs, config).collector().threads()
     };
     assert_eq!(threads(4, Some(1)), 1);
     assert_eq!(threads(4, Some(3)), 3);
@@ -71,7 +71,7 @@ fn trainer_with_capacity(seed: u64, epochs: usize, capacity: usize) -> Trainer<T
     let mut parts = common::parts(&env, method, seed, config.gamma_for(env.spec().episode_len));
     parts.replay.buffer_size = capacity * env.spec().episode_len;
     let layout = parts.layout.clone();
-    let learner = AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new()).unwrap());
+    let learner = AnyLearner::new(Maddpg::new(parts, MaddpgConfig::new()).unwrap());
     Trainer::new(config, env, learner, layout).unwrap()
 }
 
@@ -174,7 +174,7 @@ fn bad_checkpoints_are_clear_errors() {
     let mut parts = common::parts(&env, Method::Dense, 3, 0.9);
     parts.networks = parts.networks.with_hidden(32);
     let layout = parts.layout.clone();
-    let learner = AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new()).unwrap());
+    let learner = AnyLearner::new(Maddpg::new(parts, MaddpgConfig::new()).unwrap());
     let mut wrong = Trainer::new(common::trainer_config(Method::Dense, 3, 1), env, learner, layout).unwrap();
     let err = wrong.load_checkpoint(&path).unwrap_err();
     assert!(matches!(err, CoreError::Algorithm(_)), "{err}");
@@ -187,12 +187,12 @@ fn bad_checkpoints_are_clear_errors() {
 fn shadow_rewards_that_outweigh_the_task_are_refused() {
     let mut config = common::trainer_config(Method::DenseFmsr, 1, 1);
     config.shadow.alpha = 50.0;
-    let mut t = team_reach_trainer_config(AlgorithmKind::Maddpg, Method::DenseFmsr, config.clone());
+    let mut t = team_reach_trainer_config("maddpg", Method::DenseFmsr, config.clone());
     let err = t.train(|_, _| Ok(())).unwrap_err();
     assert!(err.to_string().contains("trainer.shadow.max_scale") && err.to_string().contains("agent `w`"), "{err}");
 
     config.shadow.max_scale = f64::INFINITY;
-    let mut t = team_reach_trainer_config(AlgorithmKind::Maddpg, Method::DenseFmsr, config);
+    let mut t = team_reach_trainer_config("maddpg", Method::DenseFmsr, config);
     t.train(|_, _| Ok(())).unwrap();
     let stats = &t.history()[0];
     assert!(stats.shadow_reward_abs[2] > stats.task_reward_abs[2], "{stats:?}");

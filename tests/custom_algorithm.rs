@@ -2,7 +2,9 @@
 //! (`examples/custom_algorithm.rs`, independent DDPG) gets everything else
 //! from the crate: it learns TeamReach with information sharing on, resumes
 //! exactly (Adam's moments included), exports its policy, refuses a state of
-//! another algorithm, and trains a Shadow Hand epoch of an experiment config.
+//! another algorithm, and trains a Shadow Hand epoch of an experiment config;
+//! registered by name, fmsr's own command trains, resumes, exports and
+//! evaluates it from a config that says `algorithm = "iddpg"`.
 
 mod common;
 #[path = "../examples/custom_algorithm.rs"]
@@ -100,4 +102,51 @@ fn iddpg_trains_a_shadow_hand_epoch_of_an_experiment_with_sharing() {
     let stats = trainer.run_epoch().unwrap();
     assert!(stats.updates > 0, "the epoch updated the networks");
     assert_ne!(trainer.algorithm().actor_trunk(0).unwrap(), before);
+}
+
+// Guards the registry's promise to a user's crate (issue 54, item 2): one
+// call registers the rule, and then fmsr's own command, configs and run
+// directories train, resume, export and evaluate it by name, with its
+// section written out in the run's config.toml.
+#[test]
+fn iddpg_registered_by_name_runs_through_the_fmsr_command() {
+    fmsr::algorithms::register::<IddpgRule>().unwrap();
+    // A second registration of the same rule is harmless (tests share the process).
+    fmsr::algorithms::register::<IddpgRule>().unwrap();
+    assert!(fmsr::algorithms::names().contains(&"iddpg"));
+    let tmp = tempfile::tempdir().unwrap();
+    let text = common::tiny_config_text()
+        .replace("method = \"dense_fmsr_is\"\n", "method = \"dense_fmsr_is\"\nalgorithm = \"iddpg\"\n")
+        + "\n[iddpg]\npolyak = 0.9\n";
+    let config_path = tmp.path().join("iddpg.toml");
+    std::fs::write(&config_path, &text).unwrap();
+    let config = ExperimentConfig::load(&config_path).unwrap();
+    assert_eq!(config.label(), "Dense+FMSR+IS, IDDPG");
+    assert_eq!(config.algorithm_config::<IddpgRule>().unwrap(), IddpgConfig { polyak: 0.9, ..IddpgConfig::default() });
+
+    let (run, config_arg) = (tmp.path().join("run"), config_path.to_str().unwrap());
+    let run_arg = run.to_str().unwrap();
+    fmsr::cli::run(["fmsr", "train", "--config", config_arg, "--out", run_arg, "--quiet"]).unwrap();
+    let written: toml::Table = std::fs::read_to_string(run.join("config.toml")).unwrap().parse().unwrap();
+    assert_eq!(written["algorithm"].as_str(), Some("iddpg"));
+    let section = written["iddpg"].as_table().expect("an [iddpg] section");
+    assert_eq!(section.len(), 4, "every setting written out: {section:?}");
+    assert_eq!(section["polyak"].as_float(), Some(0.9));
+
+    fmsr::cli::run(["fmsr", "train", "--out", run_arg, "--resume", "--epochs", "2", "--quiet"]).unwrap();
+    let epochs = std::fs::read_to_string(run.join("metrics.csv")).unwrap().lines().count() - 1;
+    assert_eq!(epochs, 2, "resumed for a second epoch");
+    let policy = tmp.path().join("iddpg.fmsr");
+    fmsr::cli::run(["fmsr", "export", run_arg, "--out", policy.to_str().unwrap()]).unwrap();
+    fmsr::cli::run(["fmsr", "eval", policy.to_str().unwrap()]).unwrap();
+    fmsr::cli::run(["fmsr", "eval", run_arg]).unwrap();
+    assert!(run.join("eval.json").exists());
+
+    // A section of another algorithm is refused, naming it.
+    let bad = text.replace("[iddpg]\npolyak = 0.9\n", "[matd3]\npolicy_delay = 2\n");
+    let err = ExperimentConfig::from_toml(&bad, "bad.toml".as_ref()).unwrap_err();
+    assert!(err.to_string().contains("matd3"), "{err}");
+    let bad = text.replace("polyak = 0.9", "polyak = 1.5");
+    let err = ExperimentConfig::from_toml(&bad, "bad.toml".as_ref()).unwrap_err();
+    assert!(err.to_string().contains("iddpg.polyak"), "{err}");
 }

@@ -99,7 +99,7 @@ fn the_gpu_path_computes_and_learns_as_the_cpu_path() {
     let env = common::team_reach(method);
     let parts = common::parts(&env, method, config.seed, config.gamma_for(env.spec().episode_len)).with_device(device);
     let layout = parts.layout.clone();
-    let learner = AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new()).unwrap());
+    let learner = AnyLearner::new(Maddpg::new(parts, MaddpgConfig::new()).unwrap());
     let envs = (0..config.num_envs()).map(|_| common::team_reach(method)).collect();
     let mut trainer = Trainer::with_envs(config, envs, learner, layout).unwrap();
     trainer.train(|_, _| Ok(())).unwrap();

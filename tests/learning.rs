@@ -40,7 +40,7 @@ fn shadow_reward_raises_the_occupancy_of_its_feature() {
 
 #[test]
 fn matd3_and_masac_learn_well_above_random() {
-    for kind in [AlgorithmKind::Matd3, AlgorithmKind::Masac] {
+    for kind in ["matd3", "masac"] {
         let mut trainer = team_reach_trainer_with(kind, Method::DenseFmsrIs, 1, EPOCHS);
         trainer.train(|_, _| Ok(())).unwrap();
         let seeds: Vec<u64> = (0..100).map(|i| 10_000 + i).collect();

@@ -89,7 +89,7 @@ pub mod off_policy;
 mod state;
 mod workers;
 
-pub use any::{AlgorithmKind, AnyLearner};
+pub use any::{AnyLearner, ConfiguredRule};
 /// burn's device type, re-exported for [`LearnerParts::with_device`] (e.g. `Device::flex()`).
 pub use burn::tensor::Device;
 pub use config::{CriticTying, CriticView, MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, Stacking, Teammates};
@@ -110,7 +110,7 @@ pub use state::{RescueLevel, RuleState, policy_from_learner_state, rescue_state}
 /// Everything needed for typical use: `use fmsr_nn::prelude::*;`.
 pub mod prelude {
     pub use crate::{
-        AlgorithmKind, AnyLearner, Device, DeviceSpec, LearnerParts, Maddpg, MaddpgConfig, Masac, MasacConfig, Matd3,
+        AnyLearner, ConfiguredRule, Device, DeviceSpec, LearnerParts, Maddpg, MaddpgConfig, Masac, MasacConfig, Matd3,
         Matd3Config, NetShape, NetworkConfig, NnError, Normalizer, StackedMlp, StackedMlpConfig, Stacking,
         policy_from_learner_state,
     };

@@ -45,13 +45,21 @@ pub struct MaddpgRule {
     config: MaddpgConfig,
 }
 
+impl MaddpgRule {
+    /// The rule with these settings (checked when a learner is built).
+    #[must_use]
+    pub fn new(config: MaddpgConfig) -> Self {
+        Self { config }
+    }
+}
+
 impl Maddpg {
     /// MADDPG from the shared parts and its own config.
     ///
     /// # Errors
     /// [`NnError::InvalidConfig`] / [`NnError::Sharing`] naming the first impossible setting.
     pub fn new(parts: LearnerParts, config: MaddpgConfig) -> Result<Self, NnError> {
-        Self::with_rule(parts, MaddpgRule { config })
+        Self::with_rule(parts, MaddpgRule::new(config))
     }
 
     /// The algorithm's config.

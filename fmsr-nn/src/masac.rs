@@ -63,6 +63,14 @@ pub struct MasacRule {
     state: MasacState,
 }
 
+impl MasacRule {
+    /// The rule with these settings (checked when a learner is built).
+    #[must_use]
+    pub fn new(config: MasacConfig) -> Self {
+        Self { config, state: MasacState::default() }
+    }
+}
+
 /// What MASAC learns beside the networks: every agent's log entropy
 /// temperature and the Adam state that tunes it (saved with the learner).
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -93,7 +101,7 @@ impl Masac {
     /// # Errors
     /// [`NnError::InvalidConfig`] / [`NnError::Sharing`] naming the first impossible setting.
     pub fn new(parts: LearnerParts, config: MasacConfig) -> Result<Self, NnError> {
-        Self::with_rule(parts, MasacRule { config, state: MasacState::default() })
+        Self::with_rule(parts, MasacRule::new(config))
     }
 
     /// The algorithm's config.

@@ -27,13 +27,21 @@ pub struct Matd3Rule {
     config: Matd3Config,
 }
 
+impl Matd3Rule {
+    /// The rule with these settings (checked when a learner is built).
+    #[must_use]
+    pub fn new(config: Matd3Config) -> Self {
+        Self { config }
+    }
+}
+
 impl Matd3 {
     /// MATD3 from the shared parts and its own config.
     ///
     /// # Errors
     /// [`NnError::InvalidConfig`] / [`NnError::Sharing`] naming the first impossible setting.
     pub fn new(parts: LearnerParts, config: Matd3Config) -> Result<Self, NnError> {
-        Self::with_rule(parts, Matd3Rule { config })
+        Self::with_rule(parts, Matd3Rule::new(config))
     }
 
     /// The algorithm's config.

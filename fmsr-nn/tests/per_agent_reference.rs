@@ -17,6 +17,8 @@
 
 mod common;
 
+use common::AlgorithmKind;
+
 use std::collections::BTreeMap;
 
 use fmsr_core::algorithm::Algorithm;
@@ -43,12 +45,7 @@ fn learner(
     let net = NetworkConfig::new().with_hidden(16).with_layers(3).with_seed(7).with_stacking(stacking);
     let replay = ReplayConfig { batch_size: 8, batches: 2, ..ReplayConfig::default() };
     let parts = LearnerParts::new(layout.clone(), net, replay, 0.9).with_sharing(sharing);
-    let l = match kind {
-        AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new()).unwrap()),
-        AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, Matd3Config::new()).unwrap()),
-        AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, MasacConfig::new()).unwrap()),
-    };
-    (layout, l)
+    (layout, kind.build(parts))
 }
 
 fn run(kind: AlgorithmKind, sharing: Option<Sharing>, stacking: Stacking) -> Record {
@@ -69,7 +66,7 @@ fn run(kind: AlgorithmKind, sharing: Option<Sharing>, stacking: Stacking) -> Rec
     }
     for i in 0..3 {
         rec.insert(format!("actor_trunk{i}"), l.actor_trunk(i).unwrap());
-        if let AnyLearner::Maddpg(m) = &l {
+        if let Some(m) = l.downcast_ref::<Maddpg>() {
             let (actor, critic) = m.params(i).unwrap();
             rec.insert(format!("actor{i}"), actor);
             rec.insert(format!("critic{i}"), critic);

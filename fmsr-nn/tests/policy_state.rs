@@ -8,6 +8,8 @@
 
 mod common;
 
+use common::AlgorithmKind;
+
 use fmsr_core::agent::ObservationLayout;
 use fmsr_core::policy::PolicyOutput;
 use fmsr_nn::prelude::*;

@@ -7,6 +7,8 @@
 
 mod common;
 
+use common::AlgorithmKind;
+
 use fmsr_nn::prelude::*;
 
 fn net(seed: u64) -> NetworkConfig {

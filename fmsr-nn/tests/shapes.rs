@@ -16,16 +16,16 @@ fn small() -> NetworkConfig {
 fn every_algorithm_acts_in_range_with_the_right_shapes() {
     let layout = common::layout(&[2, 3, 1], 6, 2);
     let learners: Vec<AnyLearner> = vec![
-        AnyLearner::Maddpg(Maddpg::new(common::parts(&layout, small(), 0.9), MaddpgConfig::new()).unwrap()),
-        AnyLearner::Matd3(Matd3::new(common::parts(&layout, small(), 0.9), Matd3Config::new()).unwrap()),
-        AnyLearner::Masac(Masac::new(common::parts(&layout, small(), 0.9), MasacConfig::new()).unwrap()),
+        AnyLearner::new(Maddpg::new(common::parts(&layout, small(), 0.9), MaddpgConfig::new()).unwrap()),
+        AnyLearner::new(Matd3::new(common::parts(&layout, small(), 0.9), Matd3Config::new()).unwrap()),
+        AnyLearner::new(Masac::new(common::parts(&layout, small(), 0.9), MasacConfig::new()).unwrap()),
     ];
     for mut l in learners {
         for mode in [ActMode::Explore, ActMode::Evaluate] {
             let out = l.act(&common::inputs(&layout, 5, 1), 5, mode).unwrap();
             for (i, a) in out.actions.iter().enumerate() {
-                assert_eq!(a.len(), 5 * layout.spec().agents[i].action_dim(), "{:?}", l.kind());
-                assert!(a.iter().all(|v| v.abs() <= 1.0), "{:?}", l.kind());
+                assert_eq!(a.len(), 5 * layout.spec().agents[i].action_dim(), "{:?}", l.name());
+                assert!(a.iter().all(|v| v.abs() <= 1.0), "{:?}", l.name());
             }
         }
         let empty = l.act(&common::inputs(&layout, 0, 1), 0, ActMode::Evaluate).unwrap();

@@ -7,6 +7,8 @@
 
 mod common;
 
+use common::AlgorithmKind;
+
 use fmsr_core::sharing::{ShareMode, ShareTarget, Sharing};
 use fmsr_graph::{Graph, MetropolisHastings};
 use fmsr_nn::prelude::*;

@@ -19,6 +19,8 @@
 
 mod common;
 
+use common::AlgorithmKind;
+
 use std::path::PathBuf;
 
 use fmsr_nn::prelude::*;
@@ -63,10 +65,7 @@ fn next(l: &mut AnyLearner, layout: &fmsr_core::agent::ObservationLayout) -> Nex
     let greedy = l.act(&x, 3, ActMode::Evaluate).unwrap().actions;
     let stats = l.update(&common::L1Rewards(3)).unwrap();
     let exploring = l.act(&x, 3, ActMode::Explore).unwrap().actions;
-    let temperatures = match l {
-        AnyLearner::Masac(m) => m.temperatures(),
-        _ => Vec::new(),
-    };
+    let temperatures = l.downcast_ref::<Masac>().map(Masac::temperatures).unwrap_or_default();
     Next { greedy, critic_loss: stats.critic_loss, actor_loss: stats.actor_loss, exploring, temperatures }
 }
 

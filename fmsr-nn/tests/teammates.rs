@@ -6,6 +6,8 @@
 
 mod common;
 
+use common::AlgorithmKind;
+
 use fmsr_nn::Teammates;
 use fmsr_nn::prelude::*;
 
@@ -36,13 +38,13 @@ fn cycle_actor_losses(kind: AlgorithmKind, teammates: Teammates, actions_seed: u
     let parts = common::parts(&layout, net, 0.9);
     let mut l = match kind {
         AlgorithmKind::Maddpg => {
-            AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new().with_teammates(teammates)).unwrap())
+            AnyLearner::new(Maddpg::new(parts, MaddpgConfig::new().with_teammates(teammates)).unwrap())
         }
-        AlgorithmKind::Matd3 => AnyLearner::Matd3(
+        AlgorithmKind::Matd3 => AnyLearner::new(
             Matd3::new(parts, Matd3Config::new().with_teammates(teammates).with_policy_delay(1)).unwrap(),
         ),
         AlgorithmKind::Masac => {
-            AnyLearner::Masac(Masac::new(parts, MasacConfig::new().with_teammates(teammates)).unwrap())
+            AnyLearner::new(Masac::new(parts, MasacConfig::new().with_teammates(teammates)).unwrap())
         }
     };
     let mut episode = common::episode(&layout, 0);

@@ -74,37 +74,35 @@ pub fn parts(env: &TeamReach, method: Method, seed: u64, gamma: f64) -> LearnerP
     LearnerParts::new(layout, net, replay(), gamma).with_sharing(sharing)
 }
 
-/// A trainer of `kind` and `method` on TeamReach; actors observe their ring neighbours.
+/// A trainer of `algorithm` (a registered name) and `method` on TeamReach;
+/// actors observe their ring neighbours.
 pub fn team_reach_trainer_with(
-    kind: AlgorithmKind,
+    algorithm: &str,
     method: Method,
     seed: u64,
     epochs: usize,
 ) -> Trainer<TeamReach, AnyLearner> {
-    team_reach_trainer_config(kind, method, trainer_config(method, seed, epochs))
+    team_reach_trainer_config(algorithm, method, trainer_config(method, seed, epochs))
 }
 
-/// A trainer of `kind` and `method` on `config.num_envs()` TeamReach envs.
+/// A trainer of `algorithm` and `method` on `config.num_envs()` TeamReach
+/// envs, its learner built by name as an experiment builds it.
 pub fn team_reach_trainer_config(
-    kind: AlgorithmKind,
+    algorithm: &str,
     method: Method,
     config: TrainerConfig,
 ) -> Trainer<TeamReach, AnyLearner> {
     let env = team_reach(method);
     let parts = parts(&env, method, config.seed, config.gamma_for(env.spec().episode_len));
     let layout = parts.layout.clone();
-    let learner = match kind {
-        AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new()).unwrap()),
-        AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, Matd3Config::new()).unwrap()),
-        AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, MasacConfig::new()).unwrap()),
-    };
+    let learner = fmsr::algorithms::build(algorithm, None, parts).unwrap();
     let envs = (0..config.num_envs()).map(|_| team_reach(method)).collect();
     Trainer::with_envs(config, envs, learner, layout).unwrap()
 }
 
 /// A MADDPG trainer of `method` on TeamReach.
 pub fn team_reach_trainer(method: Method, seed: u64, epochs: usize) -> Trainer<TeamReach, AnyLearner> {
-    team_reach_trainer_with(AlgorithmKind::Maddpg, method, seed, epochs)
+    team_reach_trainer_with("maddpg", method, seed, epochs)
 }
 
 /// An epoch's statistics without the wall-clock timings, which differ between runs.

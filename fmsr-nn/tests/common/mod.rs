@@ -91,20 +91,41 @@ pub fn parts(layout: &ObservationLayout, net: fmsr_nn::NetworkConfig, gamma: f64
     fmsr_nn::LearnerParts::new(layout.clone(), net, fmsr_core::replay::ReplayConfig::default(), gamma)
 }
 
-/// A learner of `kind` with `net`, small batches (16 samples, 2 gradient steps a cycle), discount 0.9.
-pub fn learner(
-    kind: fmsr_nn::AlgorithmKind,
-    layout: &ObservationLayout,
-    net: fmsr_nn::NetworkConfig,
-) -> fmsr_nn::AnyLearner {
-    use fmsr_nn::{AlgorithmKind, AnyLearner, Maddpg, MaddpgConfig, Masac, MasacConfig, Matd3, Matd3Config};
-    let replay = fmsr_core::replay::ReplayConfig { batch_size: 16, batches: 2, ..Default::default() };
-    let parts = fmsr_nn::LearnerParts::new(layout.clone(), net, replay, 0.9);
-    match kind {
-        AlgorithmKind::Maddpg => AnyLearner::Maddpg(Maddpg::new(parts, MaddpgConfig::new()).unwrap()),
-        AlgorithmKind::Matd3 => AnyLearner::Matd3(Matd3::new(parts, Matd3Config::new()).unwrap()),
-        AlgorithmKind::Masac => AnyLearner::Masac(Masac::new(parts, MasacConfig::new()).unwrap()),
+/// The crate's three algorithms, for the tests that run each.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AlgorithmKind {
+    Maddpg,
+    Matd3,
+    Masac,
+}
+
+impl AlgorithmKind {
+    pub const ALL: [AlgorithmKind; 3] = [AlgorithmKind::Maddpg, AlgorithmKind::Matd3, AlgorithmKind::Masac];
+
+    /// The algorithm's name (`UpdateRule::NAME`).
+    pub fn key(self) -> &'static str {
+        match self {
+            AlgorithmKind::Maddpg => "maddpg",
+            AlgorithmKind::Matd3 => "matd3",
+            AlgorithmKind::Masac => "masac",
+        }
     }
+
+    /// A learner of this algorithm with default settings.
+    pub fn build(self, parts: fmsr_nn::LearnerParts) -> fmsr_nn::AnyLearner {
+        use fmsr_nn::{AnyLearner, Maddpg, MaddpgConfig, Masac, MasacConfig, Matd3, Matd3Config};
+        match self {
+            AlgorithmKind::Maddpg => AnyLearner::new(Maddpg::new(parts, MaddpgConfig::new()).unwrap()),
+            AlgorithmKind::Matd3 => AnyLearner::new(Matd3::new(parts, Matd3Config::new()).unwrap()),
+            AlgorithmKind::Masac => AnyLearner::new(Masac::new(parts, MasacConfig::new()).unwrap()),
+        }
+    }
+}
+
+/// A learner of `kind` with `net`, small batches (16 samples, 2 gradient steps a cycle), discount 0.9.
+pub fn learner(kind: AlgorithmKind, layout: &ObservationLayout, net: fmsr_nn::NetworkConfig) -> fmsr_nn::AnyLearner {
+    let replay = fmsr_core::replay::ReplayConfig { batch_size: 16, batches: 2, ..Default::default() };
+    kind.build(fmsr_nn::LearnerParts::new(layout.clone(), net, replay, 0.9))
 }
 
 /// One row of actor inputs per agent.

@@ -1,0 +1,270 @@
+//! Algorithms found by name: the registry behind an experiment's
+//! `algorithm = "<name>"` and its `[<name>]` section.
+//!
+//! An entry is an update rule that implements
+//! [`ConfiguredRule`](fmsr_nn::ConfiguredRule): its name
+//! ([`UpdateRule::NAME`](fmsr_nn::UpdateRule::NAME)), its settings with
+//! their defaults, and how the rule is made from them. MADDPG, MATD3 and
+//! MASAC are registered from the start, like any other; a rule of your own
+//! crate is registered with one call, and then fmsr's configs, experiment
+//! factory, runner and command line ([`crate::cli`]) train, resume, export,
+//! evaluate and report it as they do the three:
+//!
+//! ```
+//! use fmsr::algorithms;
+//! use fmsr::nn::MaddpgRule;
+//! assert_eq!(algorithms::names(), ["maddpg", "masac", "matd3"]);
+//! // Registering a rule again is harmless; another rule of a taken name is refused.
+//! algorithms::register::<MaddpgRule>()?;
+//! # Ok::<(), fmsr::error::ExperimentError>(())
+//! ```
+//!
+//! A config's section is resolved against the rule's settings: keys it
+//! names replace the defaults, an unknown key is refused naming the key, and
+//! the run's `config.toml` writes every setting out (so a later change of a
+//! default never changes a saved run). The registry is one per process, as
+//! the command line that reads configs is.
+
+use std::any::TypeId;
+use std::collections::BTreeMap;
+use std::marker::PhantomData;
+use std::sync::{Arc, LazyLock, PoisonError, RwLock};
+
+use fmsr_nn::{AnyLearner, ConfiguredRule, LearnerParts, MaddpgRule, MasacRule, Matd3Rule, OffPolicy, Teammates};
+use serde::Deserialize;
+
+use crate::error::ExperimentError;
+
+/// Keys of an experiment that no algorithm may take as its name.
+const RESERVED: [&str; 12] = [
+    "name",
+    "method",
+    "algorithm",
+    "engine",
+    "device",
+    "env",
+    "trainer",
+    "replay",
+    "networks",
+    "sharing",
+    "graph",
+    "eval",
+];
+
+/// What the registry keeps of one rule.
+pub(crate) trait Entry: Send + Sync {
+    /// The rule's type, to tell a second registration from a clash.
+    fn rule(&self) -> TypeId;
+
+    /// The settings of `section` (absent: all defaults), every setting
+    /// written out; `Err` holds what is wrong, naming the key.
+    fn resolve(&self, section: Option<&toml::Table>) -> Result<toml::Table, String>;
+
+    /// Checks resolved settings as the rule does.
+    fn validate(&self, settings: &toml::Table) -> Result<(), ExperimentError>;
+
+    /// The algorithm's part of a run's label.
+    fn label(&self) -> Option<String>;
+
+    /// Which teammates' actions the actors' loss takes.
+    fn teammates(&self, settings: &toml::Table) -> Result<Teammates, ExperimentError>;
+
+    /// The learner of these settings on `parts`.
+    fn build(&self, settings: &toml::Table, parts: LearnerParts) -> Result<AnyLearner, ExperimentError>;
+}
+
+struct RuleEntry<R>(PhantomData<fn() -> R>);
+
+impl<R: ConfiguredRule> RuleEntry<R> {
+    fn config(settings: &toml::Table) -> Result<R::Config, ExperimentError> {
+        R::Config::deserialize(toml::Value::Table(settings.clone()))
+            .map_err(|e| ExperimentError::Config { key: R::NAME.into(), reason: e.to_string() })
+    }
+}
+
+impl<R: ConfiguredRule> Entry for RuleEntry<R> {
+    fn rule(&self) -> TypeId {
+        TypeId::of::<R>()
+    }
+
+    fn resolve(&self, section: Option<&toml::Table>) -> Result<toml::Table, String> {
+        let mut merged = toml::Table::try_from(R::default_config()).map_err(|e| e.to_string())?;
+        for (k, v) in section.into_iter().flatten() {
+            if !merged.contains_key(k) {
+                let mut names: Vec<_> = merged.keys().cloned().collect();
+                names.sort();
+                return Err(format!("unknown key `{}.{k}`, expected one of {}", R::NAME, names.join(", ")));
+            }
+            merged.insert(k.clone(), v.clone());
+        }
+        let config = R::Config::deserialize(toml::Value::Table(merged)).map_err(|e| format!("`[{}]`: {e}", R::NAME))?;
+        toml::Table::try_from(config).map_err(|e| e.to_string())
+    }
+
+    fn validate(&self, settings: &toml::Table) -> Result<(), ExperimentError> {
+        Ok(R::from_config(Self::config(settings)?).validate()?)
+    }
+
+    fn label(&self) -> Option<String> {
+        R::label()
+    }
+
+    fn teammates(&self, settings: &toml::Table) -> Result<Teammates, ExperimentError> {
+        Ok(R::teammates(&Self::config(settings)?))
+    }
+
+    fn build(&self, settings: &toml::Table, parts: LearnerParts) -> Result<AnyLearner, ExperimentError> {
+        let rule = R::from_config(Self::config(settings)?);
+        Ok(AnyLearner::new(OffPolicy::with_rule(parts, rule)?))
+    }
+}
+
+type Registry = BTreeMap<&'static str, Arc<dyn Entry>>;
+
+static REGISTRY: LazyLock<RwLock<Registry>> = LazyLock::new(|| {
+    let mut registry = Registry::new();
+    for (name, entry) in [
+        (<MaddpgRule as fmsr_nn::UpdateRule>::NAME, Arc::new(RuleEntry::<MaddpgRule>(PhantomData)) as Arc<dyn Entry>),
+        (<Matd3Rule as fmsr_nn::UpdateRule>::NAME, Arc::new(RuleEntry::<Matd3Rule>(PhantomData))),
+        (<MasacRule as fmsr_nn::UpdateRule>::NAME, Arc::new(RuleEntry::<MasacRule>(PhantomData))),
+    ] {
+        registry.insert(name, entry);
+    }
+    RwLock::new(registry)
+});
+
+/// Registers rule `R` under its name, so that configs may say
+/// `algorithm = "<R::NAME>"` and set its settings in `[<R::NAME>]`.
+/// Registering the same rule again does nothing.
+///
+/// # Errors
+/// [`ExperimentError::Register`] when another rule holds the name, or the
+/// name is not a lowercase key (`a-z`, `0-9`, `_`, starting with a letter)
+/// or is one of an experiment's own keys (`env`, `trainer`, ...).
+pub fn register<R: ConfiguredRule>() -> Result<(), ExperimentError> {
+    let name = R::NAME;
+    let refuse = |reason: String| Err(ExperimentError::Register { name: name.into(), reason });
+    let mut chars = name.chars();
+    if !chars.next().is_some_and(|c| c.is_ascii_lowercase())
+        || !chars.all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+    {
+        return refuse("a name is a lowercase key: a-z, 0-9 and _, starting with a letter".into());
+    }
+    if RESERVED.contains(&name) {
+        return refuse(format!("`{name}` is an experiment's own key"));
+    }
+    let mut registry = REGISTRY.write().unwrap_or_else(PoisonError::into_inner);
+    match registry.get(name) {
+        Some(entry) if entry.rule() == TypeId::of::<R>() => Ok(()),
+        Some(_) => refuse(format!("another rule is registered as `{name}`")),
+        None => {
+            registry.insert(name, Arc::new(RuleEntry::<R>(PhantomData)));
+            Ok(())
+        }
+    }
+}
+
+/// The registered algorithms' names, sorted.
+#[must_use]
+pub fn names() -> Vec<&'static str> {
+    REGISTRY.read().unwrap_or_else(PoisonError::into_inner).keys().copied().collect()
+}
+
+/// The entry of algorithm `name`.
+///
+/// # Errors
+/// [`ExperimentError::Config`] for key `algorithm`, listing the registered names.
+pub(crate) fn find(name: &str) -> Result<Arc<dyn Entry>, ExperimentError> {
+    let registry = REGISTRY.read().unwrap_or_else(PoisonError::into_inner);
+    registry.get(name).cloned().ok_or_else(|| ExperimentError::Config {
+        key: "algorithm".into(),
+        reason: format!(
+            "no algorithm `{name}`; registered: {} (a rule of your own crate is registered with \
+             fmsr::algorithms::register)",
+            registry.keys().copied().collect::<Vec<_>>().join(", ")
+        ),
+    })
+}
+
+/// The learner of algorithm `name` on `parts`, with the settings of
+/// `section` (absent: the defaults), as an experiment builds it.
+///
+/// # Errors
+/// [`ExperimentError::Config`] for an unknown name or setting, the rule's
+/// own checks ([`ExperimentError::Nn`]).
+pub fn build(name: &str, section: Option<&toml::Table>, parts: LearnerParts) -> Result<AnyLearner, ExperimentError> {
+    let entry = find(name)?;
+    let settings = entry.resolve(section).map_err(|reason| ExperimentError::Config { key: name.into(), reason })?;
+    entry.validate(&settings)?;
+    entry.build(&settings, parts)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fmsr_nn::{MaddpgConfig, UpdateRule};
+
+    #[derive(Debug, Clone)]
+    struct Impostor;
+
+    impl UpdateRule for Impostor {
+        const NAME: &'static str = "maddpg";
+
+        fn act(
+            &mut self,
+            _: &mut fmsr_nn::Learner,
+            _: &[Vec<f32>],
+            _: usize,
+            _: fmsr_core::policy::ActMode,
+        ) -> Result<fmsr_core::policy::PolicyOutput, fmsr_nn::NnError> {
+            unreachable!("never built")
+        }
+
+        fn step(
+            &mut self,
+            _: &mut fmsr_nn::Learner,
+            _: &fmsr_nn::BatchTensors,
+        ) -> Result<fmsr_nn::StepLosses, fmsr_nn::NnError> {
+            unreachable!("never built")
+        }
+
+        fn targets(&self) -> (f64, bool) {
+            (0.95, true)
+        }
+    }
+
+    impl ConfiguredRule for Impostor {
+        type Config = MaddpgConfig;
+
+        fn default_config() -> MaddpgConfig {
+            MaddpgConfig::new()
+        }
+
+        fn from_config(_: MaddpgConfig) -> Self {
+            Impostor
+        }
+    }
+
+    // Guards the registry's one promise: a name finds one rule. A second
+    // rule of a taken name is refused, and the first still answers.
+    #[test]
+    fn a_taken_name_is_refused_and_keeps_its_rule() {
+        let err = register::<Impostor>().unwrap_err();
+        assert!(matches!(&err, ExperimentError::Register { name, .. } if name == "maddpg"), "{err}");
+        assert_eq!(find("maddpg").unwrap().rule(), TypeId::of::<MaddpgRule>());
+        register::<MaddpgRule>().unwrap();
+    }
+
+    #[test]
+    fn unknown_names_and_keys_are_refused_naming_them() {
+        let err = find("iddpg_not_registered").map(|_| ()).unwrap_err();
+        assert!(err.to_string().contains("iddpg_not_registered") && err.to_string().contains("maddpg, masac, matd3"));
+        let section: toml::Table = "polyak = 0.9\nwarp = 1".parse().unwrap();
+        let err = find("matd3").unwrap().resolve(Some(&section)).unwrap_err();
+        assert!(err.contains("`matd3.warp`"), "{err}");
+        let section: toml::Table = "polyak = 0.9".parse().unwrap();
+        let settings = find("matd3").unwrap().resolve(Some(&section)).unwrap();
+        assert_eq!(settings["polyak"].as_float(), Some(0.9));
+        assert_eq!(settings.len(), toml::Table::try_from(fmsr_nn::Matd3Config::new()).unwrap().len());
+    }
+}

@@ -1,0 +1,378 @@
+//! The commands of [`super`], each as a function of its arguments ([`super::args`]).
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+use indicatif::{ProgressBar, ProgressStyle};
+
+use super::args::{EvalArgs, ExportArgs, RenderArgs, TrainArgs};
+use crate::artefacts::{POLICY_FILE_NAME, PolicyFile, RunDir, Source};
+use crate::error::ExperimentError;
+use crate::experiment::{Engine, EpisodeSet, ExperimentConfig};
+use crate::run;
+use fmsr_core::prelude::*;
+
+type Result<T, E = ExperimentError> = std::result::Result<T, E>;
+
+/// What a command was doing when an error stopped it
+/// ([`ExperimentError::Context`]).
+pub(super) trait Context<T> {
+    /// The error, said to have happened while doing `what`.
+    fn context<S: Into<String>>(self, what: impl FnOnce() -> S) -> Result<T>;
+}
+
+impl<T, E: std::error::Error + Send + Sync + 'static> Context<T> for Result<T, E> {
+    fn context<S: Into<String>>(self, what: impl FnOnce() -> S) -> Result<T> {
+        self.map_err(|e| ExperimentError::Context { what: what().into(), source: Box::new(e) })
+    }
+}
+
+/// A refused argument.
+fn refuse<T>(arg: &'static str, reason: String) -> Result<T> {
+    Err(ExperimentError::Cli { arg, reason })
+}
+
+fn resolve_config(args: &TrainArgs) -> Result<(ExperimentConfig, RunDir, bool)> {
+    let default_dir = |config: &ExperimentConfig| PathBuf::from("runs").join(&config.name);
+    let resume = args.resume || args.rescue.is_some();
+    let (mut config, dir) = if resume {
+        // A resumed run keeps its own configuration; --config only names it when --out is absent.
+        let dir = match &args.out {
+            Some(out) => RunDir::new(out),
+            None => {
+                RunDir::new(default_dir(&ExperimentConfig::load(&args.config).context(|| "reading the experiment")?))
+            }
+        };
+        (dir.load_config().context(|| "reading the run's config.toml")?, dir)
+    } else {
+        let config = ExperimentConfig::load(&args.config).context(|| "reading the experiment")?;
+        let dir = RunDir::new(args.out.clone().unwrap_or_else(|| default_dir(&config)));
+        (config, dir)
+    };
+    if let Some(e) = args.engine {
+        let engine = Engine::from(e);
+        if resume && engine != config.engine {
+            return refuse(
+                "--engine",
+                format!(
+                    "--engine {} differs from the run's engine {}: a resumed run keeps its engine \
+                     (`fmsr eval --engine {}` evaluates it on the other)",
+                    engine.key(),
+                    config.engine.key(),
+                    engine.key()
+                ),
+            );
+        }
+        config.engine = engine;
+    }
+    if let Some(seed) = args.seed {
+        if resume && seed != config.trainer.seed {
+            return refuse(
+                "--seed",
+                format!(
+                    "--seed {seed} differs from the run's seed {}: a resumed run keeps its seed",
+                    config.trainer.seed
+                ),
+            );
+        }
+        config.trainer.seed = seed;
+    }
+    if let Some(epochs) = args.epochs {
+        config.trainer.epochs = epochs;
+    }
+    if let Some(device) = &args.device {
+        config.device.clone_from(device);
+    }
+    config.validate()?;
+    Ok((config, dir, resume))
+}
+
+/// How training shows its progress: a bar on a terminal, one line per epoch
+/// in a log (stderr not a terminal), nothing with `--quiet` or on other MPI ranks.
+enum Progress {
+    Bar(ProgressBar),
+    Lines { total: usize, episodes: (usize, usize), start: Instant, timed: usize },
+    Quiet,
+}
+
+impl Progress {
+    fn new(config: &ExperimentConfig, done: usize, show: bool) -> Self {
+        if !show {
+            return Self::Quiet;
+        }
+        if !std::io::stderr().is_terminal() {
+            let t = &config.trainer;
+            let episodes = (t.cycles * t.episodes_per_cycle, t.eval_episodes);
+            return Self::Lines { total: t.epochs, episodes, start: Instant::now(), timed: 0 };
+        }
+        let bar = ProgressBar::new(config.trainer.epochs as u64);
+        bar.set_style(
+            ProgressStyle::with_template("{prefix} [{bar:30}] epoch {pos}/{len} ETA {eta} {msg}")
+                .expect("a valid template")
+                .progress_chars("=> "),
+        );
+        bar.set_prefix(format!("{} ({})", config.name, config.method.label()));
+        bar.set_position(done as u64);
+        Self::Bar(bar)
+    }
+
+    fn epoch(&mut self, s: &EpochStats) {
+        match self {
+            Self::Bar(bar) => {
+                bar.set_message(format!(
+                    "success {:.2} | train {:.2} | {:.0} steps/s | {:.1} updates/s",
+                    s.success_rate, s.train_success_rate, s.env_steps_per_sec, s.updates_per_sec
+                ));
+                bar.inc(1);
+            }
+            Self::Lines { total, episodes, start, timed } => {
+                *timed += 1;
+                eprintln!("{}", run::epoch_line(s, *episodes, *total, start.elapsed().as_secs_f64(), *timed));
+            }
+            Self::Quiet => {}
+        }
+    }
+
+    fn finish(&self) {
+        if let Self::Bar(bar) = self {
+            bar.finish();
+        }
+    }
+}
+
+/// `fmsr train`: in this process, or as one rank of an `mpirun` job.
+pub(super) fn train(args: &TrainArgs) -> Result<RunDir> {
+    if run::launched_with_several_ranks() {
+        return train_mpi(args);
+    }
+    train_with(args, Arc::new(SingleProcess))
+}
+
+#[cfg(feature = "mpi")]
+fn train_mpi(args: &TrainArgs) -> Result<RunDir> {
+    let mpi = crate::mpi::Mpi::init().context(|| "starting MPI")?;
+    let comm = Arc::new(mpi.communicator());
+    match train_with(args, comm.clone()) {
+        Ok(dir) => Ok(dir),
+        Err(e) => {
+            // The other ranks would wait for this one forever: end the job.
+            eprintln!("error on MPI rank {}: {e}", comm.rank());
+            comm.abort(1)
+        }
+    }
+}
+
+#[cfg(not(feature = "mpi"))]
+fn train_mpi(_args: &TrainArgs) -> Result<RunDir> {
+    refuse(
+        "mpirun",
+        "started by mpirun as one of several ranks, but this fmsr was built without the `mpi` feature: \
+         build with `cargo build --release --features mpi` (after scripts/setup_mpi.sh)"
+            .into(),
+    )
+}
+
+fn train_with(args: &TrainArgs, comm: Arc<dyn Communicator>) -> Result<RunDir> {
+    let (config, dir, resume) = resolve_config(args)?;
+    let done = if resume { dir.load_metrics().map(|m| m.len()).unwrap_or(0) } else { 0 };
+    let rank = comm.rank();
+    if rank == 0 {
+        eprintln!(
+            "training {} ({}, {}, {:?}) for {} epochs into {}{}",
+            config.name,
+            config.method.label(),
+            config.algorithm,
+            config.engine,
+            config.trainer.epochs,
+            dir.root().display(),
+            if resume { " (resumed)" } else { "" }
+        );
+        if comm.workers() > 1 {
+            eprintln!("on {} MPI ranks", comm.workers());
+        }
+    }
+    let mut progress = Progress::new(&config, done, rank == 0 && !args.quiet);
+    let on_epoch = |s: &EpochStats| progress.epoch(s);
+    let envs = (0..config.trainer.worker_envs(comm.workers())?)
+        .map(|_| config.env_config().init_engine(config.engine))
+        .collect::<Result<Vec<_>, _>>()
+        .context(|| format!("building the {} Shadow Hand", config.engine.key()))?;
+    let rescue = args.rescue.as_deref().map(fmsr_core::trainer::RescuePoint::read).transpose()?;
+    let start = match &rescue {
+        Some(point) => {
+            let refill = args.refill.unwrap_or(config.trainer.cycles * config.trainer.episodes_per_cycle);
+            eprintln!(
+                "restarting from the rescue point of epoch {} (keeps {}): {} episodes of replay lost, {refill} collected first",
+                point.epoch, point.keeps, point.stored_episodes
+            );
+            run::Start::Rescue { point, refill }
+        }
+        None if resume => run::Start::Resume,
+        None => run::Start::New,
+    };
+    run::train_from(&config, envs, &dir, start, comm.clone(), on_epoch)?;
+    progress.finish();
+    Ok(dir)
+}
+
+pub(super) fn eval(args: &EvalArgs) -> Result<()> {
+    let source = Source::open(&args.run)?;
+    let mut config = source.config().context(|| "reading the run's config.toml")?;
+    if let Some(n) = args.episodes {
+        config.eval.episodes = n;
+    }
+    let trained_under = config.env.goal_distance;
+    if let Some(d) = args.goal_distance {
+        config.env.goal_distance = d.into();
+    }
+    config.validate()?;
+    let engine = args.engine.map_or(config.engine, Engine::from);
+    let set = EpisodeSet::from(args.set);
+    let dt = crate::experiment::MODEL_TIMESTEP * config.env.substeps as f64;
+    let env =
+        config.env_config().init_engine(engine).context(|| format!("building the {} Shadow Hand", engine.key()))?;
+    let summary = crate::evaluate::evaluate_source_on(&config, env, engine, set, &source, dt)?;
+    println!("{}", summary.to_markdown());
+    let out = match &source {
+        Source::Run(dir) => Some(args.out.clone().unwrap_or_else(|| {
+            let path = dir.eval_json_for(engine, config.engine, set);
+            if config.env.goal_distance == trained_under {
+                return path;
+            }
+            let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("eval").to_owned();
+            path.with_file_name(format!("{stem}-{}.json", config.env.goal_distance.key()))
+        })),
+        Source::Policy { .. } => args.out.clone(),
+    };
+    if let Some(out) = out {
+        crate::artefacts::write_eval(&summary, &out)?;
+        println!("evaluation written to {}", out.display());
+    }
+    match &source {
+        Source::Policy { file, path } if args.record => {
+            let mut file = file.as_ref().clone();
+            file.record_eval(summary);
+            file.write(path)?;
+            println!(
+                "{}: the evaluation is now the one the file carries for {} ({})",
+                path.display(),
+                engine.key(),
+                set.key()
+            );
+        }
+        Source::Policy { file, path } => compare_with_carried(file, path, &summary),
+        Source::Run(_) if args.record => {
+            return refuse(
+                "--record",
+                "--record writes into a policy file; a run's evaluation is written to its directory".into(),
+            );
+        }
+        Source::Run(_) => {}
+    }
+    Ok(())
+}
+
+/// Says whether a policy file's new evaluation repeats the one it carries.
+fn compare_with_carried(file: &PolicyFile, path: &std::path::Path, summary: &crate::artefacts::EvalReport) {
+    let engine = summary.engine.as_str();
+    match file.eval_under(engine, summary.set, summary.goal_distance) {
+        Some(recorded) if recorded.same_results(summary) => println!(
+            "{}: the same results as the evaluation the file carries (every episode's outcome and final angle)",
+            path.display()
+        ),
+        Some(recorded) if recorded.success_rule != summary.success_rule => println!(
+            "{}: the file carries an evaluation under the old definition of success ({}: {}); this one counts a drop as a failure \
+             (`fmsr eval {} --record` writes it into the file)",
+            path.display(),
+            recorded.success_cell(),
+            recorded.success_rule.describe(),
+            path.display()
+        ),
+        Some(recorded) => println!(
+            "{}: differs from the evaluation the file carries ({} now, {} recorded over {} episodes)",
+            path.display(),
+            summary.success_cell(),
+            recorded.success_cell(),
+            recorded.episodes
+        ),
+        None => println!(
+            "{}: the file carries no {} evaluation on {engine} by the {} distance to compare with",
+            path.display(),
+            summary.set.key(),
+            summary.goal_distance.key()
+        ),
+    }
+}
+
+pub(super) fn export(args: &ExportArgs) -> Result<()> {
+    let dir = RunDir::new(&args.run);
+    let file = PolicyFile::from_run(&dir).context(|| format!("exporting {}", dir.root().display()))?;
+    let out = args.out.clone().unwrap_or_else(|| dir.root().join(POLICY_FILE_NAME));
+    file.write(&out)?;
+    if file.evals.is_empty() {
+        eprintln!("note: the run has no evaluation (run `fmsr eval` on it first), so the file carries none");
+    }
+    if file.provenance.commit.is_none() {
+        eprintln!("note: the run names no commit (it predates provenance.json, or was not started in a git checkout)");
+    }
+    let bytes = std::fs::metadata(&out).map_or(0, |m| m.len());
+    println!(
+        "wrote {} ({:.1} MB: {} after {} epochs, commit {})",
+        out.display(),
+        bytes as f64 / 1e6,
+        file.config.label(),
+        file.epochs,
+        file.provenance.commit_label()
+    );
+    Ok(())
+}
+
+pub(super) fn render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
+    use crate::artefacts::RenderTarget;
+    use crate::render::record_source_episode;
+    let source = Source::open(&args.run)?;
+    let config = source.config().context(|| "reading the run's config.toml")?;
+    let engine = args.engine.map_or(config.engine, Engine::from);
+    let target = match &args.out {
+        Some(out) => RenderTarget::from_path(out)?,
+        None => source.render_target(args.episode, Some(engine))?,
+    };
+    let env =
+        config.env_config().init_engine(engine).context(|| format!("building the {} Shadow Hand", engine.key()))?;
+    let film = record_source_episode(&config, env, engine, &source, args.episode)?;
+    let scene = crate::render::load_scene(&config)?;
+    let camera = fmsr_envs::shadow_hand::render::Camera::gym(args.width, args.height);
+    crate::render::write_film(&scene, &film, &camera, &target)
+}
+
+/// Renders test episode 0 of each run on its own engine, unless already drawn
+/// (the report shows its frame strip and links the GIF).
+fn render_for_report(runs: &[PathBuf]) {
+    for run in runs {
+        let Ok(source) = Source::open(run) else { continue };
+        let Ok(target) = source.render_target(0, None) else { continue };
+        let untrained = matches!(&source, Source::Run(dir) if !dir.checkpoint().exists());
+        if target.strip_path().is_some_and(|p| p.exists()) || untrained {
+            continue;
+        }
+        let args = RenderArgs { run: run.clone(), episode: 0, engine: None, out: None, width: 320, height: 240 };
+        // A run the report can still tabulate (an old checkpoint format, an engine
+        // not built in) is reported without its rendering; the summary lists it.
+        if let Err(e) = render(&args) {
+            eprintln!("warning: not rendering {}: {e}", run.display());
+        }
+    }
+}
+
+pub(super) fn report(runs: &[PathBuf], out: &std::path::Path) -> Result<()> {
+    render_for_report(runs);
+    let records = runs
+        .iter()
+        .map(|r| crate::report::RunRecord::open(r).context(|| format!("reading the run {}", r.display())))
+        .collect::<Result<Vec<_>>>()?;
+    let files = crate::report::write_report(&records, out)?;
+    println!("report written to {} ({} figures)", files.summary.display(), files.figures.len());
+    Ok(())
+}
