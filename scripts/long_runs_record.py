@@ -295,11 +295,15 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
     """The section's lines between its markers; `finals` are the runs' final evaluations, or None before `finish`."""
     lines = [f"## {HEADING}", ""]
     gone = any(r["lost"] for r in runs)
+    configs = [r["env"].get("CONFIG", "?") for r in runs]
+    engines = sorted({"MuJoCo" if "mujoco" in c else "rapier" for c in configs})
     lines.append(
-        "Issue 37: both runs at the paper's config (`configs/egg_dense_fmsr_is.toml`, `configs/egg_dense.toml`: "
-        "400 epochs of 25 cycles x 8 rollouts x 100 steps = 20k env steps, 25 x 25 gradient steps of 1024 samples, "
-        "seed 0, rapier), one core each (`trainer.threads = 1`, `networks.threads = 1`, which do not change the "
-        "results), kept across sessions by `scripts/long_runs.sh` in `$HOME/.local/share/fmsr/long-runs`."
+        "Issues 37 and 53: both runs at the paper's config ("
+        + ", ".join(f"`{c}`" for c in configs)
+        + ": 400 epochs of 25 cycles x 8 rollouts x 100 steps = 20k env steps, 25 x 25 gradient steps of 1024 "
+        f"samples, seed 0, trained on {' and '.join(engines)}; the goal distance each config.toml names), one core "
+        "each (`trainer.threads = 1`, `networks.threads = 1`, which do not change the results), kept across sessions "
+        "by `scripts/long_runs.sh` in `$HOME/.local/share/fmsr/long-runs`, with rescue points in `pretrained/`."
         + ("" if gone else " Until both reach 400 epochs this section is progress, not a result.")
     )
     lines.append("")
@@ -312,7 +316,7 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
             f"(`{Path(e.get('BIN', '?')).name}`, kept for the whole run); config and metrics in "
             f"[`{records_rel}/{r['name']}/`]({records_rel}/{r['name']}/)." + restarts_note(r)
         )
-    lines += ["", "```sh", "scripts/long_runs.sh start configs/egg_dense_fmsr_is.toml configs/egg_dense.toml  # once",
+    lines += ["", "```sh", f"scripts/long_runs.sh start {' '.join(configs)}  # once",
               "scripts/long_runs.sh resume   # first thing every session", "scripts/long_runs.sh status",
               "scripts/long_runs.sh record   # last thing every session: evaluate snapshots, rewrite this section", "```", ""]
     lines.append("Env steps count the training rollouts (20k an epoch) and the epoch's 50 evaluation episodes (5k).")
