@@ -255,6 +255,18 @@ mod tests {
         register::<MaddpgRule>().unwrap();
     }
 
+    // Guards the reserved names against drift: every top-level key a run's
+    // config.toml can hold, but the algorithm's section, is one no rule may take.
+    #[test]
+    fn every_key_of_an_experiment_is_reserved() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/block_dense_fmsr_is_quick.toml");
+        let config = crate::experiment::ExperimentConfig::load(&path).unwrap();
+        let table: toml::Table = config.to_toml().unwrap().parse().unwrap();
+        for key in table.keys().filter(|k| **k != config.algorithm) {
+            assert!(RESERVED.contains(&key.as_str()), "`{key}` is not reserved");
+        }
+    }
+
     #[test]
     fn unknown_names_and_keys_are_refused_naming_them() {
         let err = find("iddpg_not_registered").map(|_| ()).unwrap_err();

@@ -618,6 +618,16 @@ impl ExperimentConfig {
 
     /// The config with algorithm `R` and these settings.
     ///
+    /// ```
+    /// use fmsr::experiment::ExperimentConfig;
+    /// use fmsr::nn::{Matd3Config, Matd3Rule};
+    /// let config = ExperimentConfig::from_toml("name = \"x\"\nmethod = \"dense\"\n", "x.toml".as_ref())?;
+    /// let config = config.with_algorithm::<Matd3Rule>(&Matd3Config::new().with_policy_delay(3))?;
+    /// assert_eq!((config.algorithm.as_str(), config.label().as_str()), ("matd3", "Dense, MATD3"));
+    /// assert!(config.to_toml()?.contains("policy_delay = 3"));
+    /// # Ok::<(), fmsr::error::ExperimentError>(())
+    /// ```
+    ///
     /// # Errors
     /// [`ExperimentError::Config`] when `R` is not registered
     /// ([`algorithms::register`]) or its settings are impossible.

@@ -116,7 +116,6 @@ trait Erased: Algorithm + PolicyState + Policy<Error = NnError> + Send + Debug {
     fn actor_trunk(&self, agent: usize) -> Result<Vec<f32>, NnError>;
     fn params(&self, agent: usize) -> Result<(Vec<f32>, Vec<f32>), NnError>;
     fn as_any(&self) -> &dyn Any;
-    fn as_any_mut(&mut self) -> &mut dyn Any;
 }
 
 impl<R: UpdateRule> Erased for OffPolicy<R> {
@@ -133,10 +132,6 @@ impl<R: UpdateRule> Erased for OffPolicy<R> {
     }
 
     fn as_any(&self) -> &dyn Any {
-        self
-    }
-
-    fn as_any_mut(&mut self) -> &mut dyn Any {
         self
     }
 }
@@ -179,11 +174,6 @@ impl AnyLearner {
     #[must_use]
     pub fn downcast_ref<L: 'static>(&self) -> Option<&L> {
         self.0.as_any().downcast_ref()
-    }
-
-    /// The learner, mutably, if it is an `L`.
-    pub fn downcast_mut<L: 'static>(&mut self) -> Option<&mut L> {
-        self.0.as_any_mut().downcast_mut()
     }
 
     /// Agent `agent`'s actor trunk, flattened (what information sharing mixes).
