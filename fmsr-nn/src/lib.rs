@@ -6,7 +6,10 @@
 //! update rule ([`UpdateRule`], public: a user's algorithm is one) that holds only what makes the algorithm itself (its config,
 //! its losses and targets, what its critics see, its own state): [`Maddpg`] is
 //! `OffPolicy<MaddpgRule>`, [`Matd3`] `OffPolicy<Matd3Rule>`, [`Masac`]
-//! `OffPolicy<MasacRule>` ([`off_policy`]). `OffPolicy` implements
+//! `OffPolicy<MasacRule>` ([`off_policy`]). A rule steps through the
+//! learner's public view ([`Learner`]): the deterministic steps of MADDPG and
+//! MATD3, and the squashed-Gaussian ones ([`SquashedGaussian`]) that MASAC is
+//! written on and a user's SAC variant can be. `OffPolicy` implements
 //! [`fmsr_core::Algorithm`], [`fmsr_core::Policy`] and
 //! [`fmsr_core::PolicyState`] once: it owns the HER replay buffer, the update
 //! schedule (`replay.batches` gradient steps per cycle), the target networks
@@ -98,7 +101,7 @@ pub use device::{Adapter, DeviceSpec};
 #[deprecated(note = "renamed CriticTying: \"sharing\" means information sharing (eq. 8)")]
 pub type CriticSharing = CriticTying;
 pub use error::NnError;
-pub use learner::{BatchTensors, Learner, LearnerParts};
+pub use learner::{BatchTensors, Learner, LearnerParts, SoftTerm, SquashedGaussian};
 pub use maddpg::{Maddpg, MaddpgRule};
 pub use masac::{Masac, MasacRule};
 pub use matd3::{Matd3, Matd3Rule};

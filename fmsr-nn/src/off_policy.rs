@@ -16,8 +16,8 @@
 //!
 //! A rule is public: an algorithm of your own crate is a struct and this
 //! trait, written against the learner's public view ([`Learner`]: target
-//! actions, the critic step, the deterministic actor step, acting, the step
-//! index and the RNG), and `OffPolicy<YourRule>` is then a whole learner with
+//! actions, the critic step, the deterministic actor step and acting; their
+//! stochastic twins for squashed Gaussian policies; the step index and the RNG), and `OffPolicy<YourRule>` is then a whole learner with
 //! everything above, resumable and exportable (the `fmsr` crate's
 //! `examples/custom_algorithm.rs`: IDDPG in one short file). The learner
 //! counts the steps, applies information sharing and worker averaging inside

@@ -19,7 +19,9 @@
 //! batches it uploads; `steps.rs` the critic and actor steps, worker averaging,
 //! information sharing and polyak targets; `deterministic.rs` what the
 //! deterministic-actor rules share (target actions, the policy-gradient step,
-//! acting with exploration); `probes.rs` the views into the networks that
+//! acting with exploration); `stochastic.rs` what the squashed-Gaussian rules
+//! share (sampled next actions, the soft critic step, the entropy-regularised
+//! actor step, acting); `probes.rs` the views into the networks that
 //! tests and tools read; this file the networks, the normalisers and acting.
 //! The algorithms drive it through [`crate::off_policy`].
 
@@ -27,6 +29,7 @@ pub(crate) mod deterministic;
 mod probes;
 mod replay;
 mod steps;
+mod stochastic;
 
 use burn::optim::AdamConfig;
 use burn::tensor::{Device, Tensor, TensorData};
@@ -44,12 +47,15 @@ use crate::workers::{par_each, worker_pools};
 
 pub use self::replay::BatchTensors;
 pub use self::replay::{check_replay_fits, physical_memory_bytes};
+pub use self::stochastic::{SoftTerm, SquashedGaussian};
 
 /// The shared machinery; see the [module docs](self). An update rule
 /// ([`crate::UpdateRule`]) sees it through its public methods: the agents and
 /// their action widths, the step index, the RNG and device, and the steps
 /// ([`Learner::target_actions`], [`Learner::critic_step`],
-/// [`Learner::deterministic_actor_step`], [`Learner::deterministic_act`]),
+/// [`Learner::deterministic_actor_step`], [`Learner::deterministic_act`];
+/// [`Learner::sampled_next_actions`], [`Learner::soft_critic_step`],
+/// [`Learner::squashed_gaussian_actor_step`], [`Learner::squashed_gaussian_act`]),
 /// each of which applies information sharing and worker averaging itself.
 pub struct Learner {
     pub(crate) layout: ObservationLayout,
@@ -361,6 +367,13 @@ impl Learner {
     #[must_use]
     pub fn gamma(&self) -> f64 {
         self.gamma
+    }
+
+    /// The networks' and optimisers' settings (Adam's betas for a rule's own
+    /// optimiser, as MASAC's temperatures use them).
+    #[must_use]
+    pub fn networks(&self) -> &NetworkConfig {
+        &self.net
     }
 
     /// The group of agent `agent` and the agent's index in it.
