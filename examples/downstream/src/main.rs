@@ -1,7 +1,8 @@
 //! A user's crate: a new multi-agent task (`Env`), a communication topology
 //! (`Topology`) and a mixing rule (`MixingRule`) of its own, trained with
 //! fmsr's MADDPG, shadow rewards and information sharing through the public
-//! API only.
+//! API only; then an algorithm of its own (`sac.rs`, SAC with a fixed
+//! temperature) registered by name and run by fmsr's own command.
 //!
 //! `Herd`: three agents move along a line; the goal is a position for their
 //! mean. The stability feature `together` is on while the agents stay within
@@ -12,6 +13,8 @@ use fmsr_core::prelude::*;
 use fmsr_graph::{Graph, GraphError, MixingMatrix, MixingRule, Topology};
 use fmsr_nn::{LearnerParts, Maddpg, MaddpgConfig, NetworkConfig};
 use rand::{Rng, SeedableRng};
+
+mod sac;
 
 const AGENTS: usize = 3;
 
@@ -168,5 +171,9 @@ fn main() -> Result<()> {
         bail!("training produced no statistics");
     }
     println!("downstream crate trained {} epochs through the public API", trainer.epoch());
-    Ok(())
+    let dir = std::env::temp_dir().join(format!("fmsr-downstream-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let ran = sac::run_by_name(&dir);
+    std::fs::remove_dir_all(&dir)?;
+    ran
 }
