@@ -36,7 +36,11 @@
 //! (`algorithm = "iddpg"`) and fmsr's own command, [`cli::main`], train,
 //! resume, export, evaluate and report it; `tests/custom_algorithm.rs`
 //! checks that it learns TeamReach, resumes exactly, and runs through the
-//! command by name.
+//! command by name. A stochastic policy's rule steps through the learner's
+//! squashed-Gaussian steps ([`nn::SquashedGaussian`]), as the crate's MASAC
+//! does: `examples/downstream/src/sac.rs`, a crate outside this workspace,
+//! writes SAC with a fixed temperature that way, registers it and runs it
+//! through [`cli::run`].
 #![warn(missing_docs)]
 
 pub mod algorithms;
