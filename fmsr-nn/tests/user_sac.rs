@@ -136,3 +136,42 @@ fn temperatures_that_are_not_one_per_agent_are_refused() {
     let err = l.update(&common::L1Rewards(3)).unwrap_err();
     assert!(matches!(&err, NnError::Dimension { what, expected: 3, found: 2 } if what == "temperatures"), "{err}");
 }
+
+/// [`FixedSac`] with one head block per action: a rule that forgot `HEADS = 2`.
+#[derive(Debug, Clone)]
+struct OneHead(FixedSac);
+
+impl UpdateRule for OneHead {
+    const NAME: &'static str = "one_head";
+    const CRITICS: usize = 2;
+
+    fn act(&mut self, l: &mut Learner, inputs: &[Vec<f32>], n: usize, mode: ActMode) -> Result<PolicyOutput, NnError> {
+        self.0.act(l, inputs, n, mode)
+    }
+
+    fn step(&mut self, l: &mut Learner, b: &BatchTensors) -> Result<StepLosses, NnError> {
+        self.0.step(l, b)
+    }
+
+    fn targets(&self) -> (f64, bool) {
+        (0.95, false)
+    }
+}
+
+#[test]
+fn actors_without_two_head_blocks_are_refused_not_misread() {
+    let (layout, p) = parts();
+    let rule = FixedSac {
+        alpha: vec![0.3; 3],
+        dist: SquashedGaussian { log_std_min: -5.0, log_std_max: 2.0 },
+        teammates: Teammates::Replay,
+        random_eps: 0.0,
+    };
+    let mut l = OffPolicy::with_rule(p, OneHead(rule)).unwrap();
+    let is_heads = |e: &NnError| matches!(e, NnError::InvalidConfig { key: "UpdateRule::HEADS", .. });
+    let err = l.act(&common::inputs(&layout, 2, 1), 2, ActMode::Evaluate).unwrap_err();
+    assert!(is_heads(&err), "{err}");
+    l.store(&common::episode(&layout, 0)).unwrap();
+    let err = l.update(&common::L1Rewards(3)).unwrap_err();
+    assert!(is_heads(&err), "{err}");
+}

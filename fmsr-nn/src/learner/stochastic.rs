@@ -10,8 +10,9 @@
 //! log pi(a | o) = sum_k [ -eps_k^2 / 2 - s_k - log(2 pi) / 2 - log(1 - tanh(u_k)^2) ]
 //! ```
 //!
-//! A rule with such a policy declares `HEADS = 2` (means, then log-stds) and
-//! `CRITICS = 2` (the steps take the minimum of twin critics), and passes
+//! A rule with such a policy declares `HEADS = 2` (means, then log-stds; the
+//! steps refuse other heads with [`NnError::InvalidConfig`]) and usually
+//! `CRITICS = 2` (the steps take the minimum over the critics), and passes
 //! every agent's entropy temperature `alpha_i` to each step.
 
 use std::sync::Mutex;
@@ -64,6 +65,23 @@ fn sample(head: Tensor<3>, eps: Tensor<3>, mask: Tensor<3>, dist: SquashedGaussi
 }
 
 impl Learner {
+    /// Refuses actors whose heads are not a squashed Gaussian's two blocks.
+    fn check_gaussian_heads(&self) -> Result<(), NnError> {
+        for (i, d) in (0..self.num_agents()).map(|i| (i, self.action_dim(i))) {
+            let (g, k) = self.locate(i)?;
+            let width = self.groups[g].actor_layout.head_cols.get(k).map_or(0, Vec::len);
+            if width != 2 * d {
+                return Err(NnError::InvalidConfig {
+                    key: "UpdateRule::HEADS",
+                    reason: format!(
+                        "the squashed-Gaussian steps need 2 head blocks (means, log-stds); agent {i}'s actor has {width} outputs for {d} actions"
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Each group's temperatures `[A_g, 1, 1]`.
     fn temperature_tensors(&self, temperatures: &[f32]) -> Result<Vec<Tensor<3>>, NnError> {
         let na = self.num_agents();
@@ -86,13 +104,15 @@ impl Learner {
     /// with `alpha_j = temperatures[j]`. The noise comes from [`Learner::rng`].
     ///
     /// # Errors
-    /// [`NnError::Dimension`] when `temperatures` is not one per agent; backend errors.
+    /// [`NnError::Dimension`] when `temperatures` is not one per agent,
+    /// [`NnError::InvalidConfig`] for actors without two head blocks; backend errors.
     pub fn sampled_next_actions(
         &mut self,
         b: &BatchTensors,
         dist: SquashedGaussian,
         temperatures: &[f32],
     ) -> Result<(Tensor<2>, SoftTerm), NnError> {
+        self.check_gaussian_heads()?;
         let alpha = self.temperature_tensors(temperatures)?;
         let eps = self.noise(b.n, gaussian);
         let next = self.per_group(|g, group| {
@@ -131,7 +151,7 @@ impl Learner {
     /// One optimiser step of every agent's actor on the entropy-regularised loss
     ///
     /// ```text
-    /// L_i = mean (alpha_i log pi_i(a_i | o_i) - min(Q_i1, Q_i2)(.., a_i, ..)),   a_i ~ pi_i(. | o_i)
+    /// L_i = mean (alpha_i log pi_i(a_i | o_i) - min_c Q_{i,c}(.., a_i, ..)),   a_i ~ pi_i(. | o_i)
     /// ```
     ///
     /// (reparameterised samples, noise from [`Learner::rng`]), where the
@@ -143,7 +163,8 @@ impl Learner {
     /// averaged over worker processes (what a temperature is tuned on).
     ///
     /// # Errors
-    /// [`NnError::Dimension`] when `temperatures` is not one per agent; backend errors.
+    /// [`NnError::Dimension`] when `temperatures` is not one per agent,
+    /// [`NnError::InvalidConfig`] for actors without two head blocks; backend errors.
     pub fn squashed_gaussian_actor_step(
         &mut self,
         b: &BatchTensors,
@@ -151,6 +172,7 @@ impl Learner {
         temperatures: &[f32],
         teammates: Teammates,
     ) -> Result<(Vec<f32>, Vec<f32>), NnError> {
+        self.check_gaussian_heads()?;
         let alpha = self.temperature_tensors(temperatures)?;
         let eps = self.noise(b.n, gaussian);
         let current;
@@ -167,7 +189,12 @@ impl Learner {
             let mask = Tensor::from_inner(group.joint.mask.clone());
             let (a, lp) = sample(head, Tensor::from_inner(eps[g].clone()), mask, dist);
             let input = group.critic_input_own(a, &b.og, &b.actions, &b.groups[g]);
-            let q = critics.nets[0].forward(input.clone()).min_pair(critics.nets[1].forward(input));
+            let q = critics
+                .nets
+                .iter()
+                .map(|c| c.forward(input.clone()))
+                .reduce(Tensor::min_pair)
+                .ok_or(NnError::Backend { what: "critic", reason: "no critic".into() })?;
             let m = to_vec1(lp.clone().mean_dim(1).reshape([group.len()]), "log pi")?;
             if let Ok(mut v) = mean_logp.lock() {
                 v[group.agents.clone()].copy_from_slice(&m);
@@ -187,7 +214,8 @@ impl Learner {
     /// uniformly random action with probability `random_eps`.
     ///
     /// # Errors
-    /// [`NnError::Dimension`] / [`NnError::NotFinite`] for inputs that do not fit, backend errors.
+    /// [`NnError::Dimension`] / [`NnError::NotFinite`] for inputs that do not fit,
+    /// [`NnError::InvalidConfig`] for actors without two head blocks; backend errors.
     pub fn squashed_gaussian_act(
         &mut self,
         inputs: &[Vec<f32>],
@@ -196,6 +224,7 @@ impl Learner {
         dist: SquashedGaussian,
         random_eps: f64,
     ) -> Result<PolicyOutput, NnError> {
+        self.check_gaussian_heads()?;
         let heads = self.heads(inputs, n)?;
         let (lo, hi) = (dist.log_std_min, dist.log_std_max);
         let mut actions = Vec::with_capacity(heads.len());
