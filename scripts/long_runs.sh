@@ -91,7 +91,7 @@ records=${FMSR_LONG_RUNS_RECORDS:-$repo/docs/results/paper_budget}
 pretrained=${FMSR_LONG_RUNS_PRETRAINED:-$repo/pretrained}
 results=${FMSR_LONG_RUNS_RESULTS:-$repo/docs/results.md}
 trials=${FMSR_LONG_RUNS_TRIALS:-500}
-# What a rescue point keeps (`fmsr rescue --keep`): online, targets or full.
+# What a rescue point keeps (`fmsr rescue --keep`): online, half, targets or full.
 keep=${FMSR_LONG_RUNS_KEEP:-online}
 # Epochs (from 0) after which the policy is exported.
 snapshot_epochs=(0 9 24 49 99 149 199 249 299 349 399)

@@ -1,7 +1,7 @@
 //! Guards rescue points (issue 53): a run whose checkpoint and replay log
 //! are lost restarts from a rescue point with everything but its replay
 //! buffer (the `full` level, bit for bit), or with its online networks
-//! (`online`); the restart is in its history; a checkpoint written after the
+//! (`online`, and at f16 precision `half`); the restart is in its history; a checkpoint written after the
 //! restart resumes exactly as the restarted run goes on (the lost episodes
 //! are never looked for); a thinned state is refused by a whole-state
 //! reader, and a corrupted or truncated rescue point by its own reader, with
@@ -94,6 +94,42 @@ fn an_online_rescue_point_restores_the_policy_and_is_a_quarter_of_the_state() {
     let mut whole = team_reach_trainer(Method::DenseFmsrIs, SEED, EPOCHS);
     let err = whole.algorithm_mut().load_state(&online.algorithm).unwrap_err();
     assert!(matches!(err, fmsr::nn::NnError::StateMismatch { .. }), "{err}");
+}
+
+// Guards the `half` level: the online networks at f16 precision, about
+// half of an `online` rescue point, each parameter restored within f16's
+// rounding of the run's, training on from there; a whole-state reader
+// refuses it and a damaged one is a typed error.
+#[test]
+fn a_half_rescue_point_is_half_of_online_and_restores_the_networks_to_f16_precision() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = trained(tmp.path());
+    let online = rescue(tmp.path(), RescueLevel::Online);
+    let half = rescue(tmp.path(), RescueLevel::Half);
+    assert_eq!(half.keeps, "half");
+    let (h, o) = (half.algorithm.len() as f64, online.algorithm.len() as f64);
+    assert!(h < 0.56 * o && h > 0.4 * o, "half {h} bytes against online {o}");
+    let mut restarted = team_reach_trainer(Method::DenseFmsrIs, SEED, EPOCHS);
+    restarted.restore_rescue(&half, 2).unwrap();
+    let mut moved = 0;
+    for i in 0..3 {
+        let ((a, c), (ha, hc)) = (run.algorithm().params(i).unwrap(), restarted.algorithm().params(i).unwrap());
+        assert_eq!((a.len(), c.len()), (ha.len(), hc.len()));
+        for (x, y) in a.iter().chain(&c).zip(ha.iter().chain(&hc)) {
+            assert!((x - y).abs() <= x.abs() * 2f32.powi(-11) + 6e-8, "agent {i}: {x} restored as {y}");
+            moved += usize::from(x != y);
+        }
+    }
+    assert!(moved > 0, "f16 rounds the parameters");
+    restarted.run_epoch().unwrap();
+    let mut whole = team_reach_trainer(Method::DenseFmsrIs, SEED, EPOCHS);
+    let err = whole.algorithm_mut().load_state(&half.algorithm).unwrap_err();
+    assert!(matches!(err, fmsr::nn::NnError::StateMismatch { .. }), "{err}");
+    let mut damaged = half.algorithm.clone();
+    let last = damaged.len() - 1;
+    damaged[last] ^= 1;
+    let err = whole.algorithm_mut().load_rescue_state(&damaged).unwrap_err();
+    assert!(matches!(err, fmsr::nn::NnError::CorruptState { .. }), "{err}");
 }
 
 #[test]

@@ -25,6 +25,8 @@ use crate::learner::Learner;
 use crate::net::Critics;
 use crate::normalizer::Normalizer;
 
+mod half;
+
 /// An update rule's own state as a learner state holds it: a version of the
 /// rule's choosing and the postcard bytes of a serde value.
 ///
@@ -114,6 +116,10 @@ pub(crate) enum SavedRule {
 
 /// A learner state of format 7, 6 or 5, or of format 4 with its rule state as values.
 fn decode_learner(bytes: &[u8]) -> Result<(LearnerBody, SavedRule), NnError> {
+    if half::is_half(bytes) {
+        let state = half::unpack(bytes)?;
+        return Ok((state.learner, SavedRule::Typed(state.rule)));
+    }
     match persist::decode::<LearnerState>(&LEARNER.format, bytes) {
         Ok(v7) => Ok((v7.learner, SavedRule::Typed(v7.rule))),
         Err(FormatError::Version { found: 4, .. }) => {
@@ -419,6 +425,9 @@ pub enum RescueLevel {
     /// fresh (about a quarter of the whole state).
     #[default]
     Online,
+    /// As `Online`, the online networks stored at half precision (`f16`,
+    /// each parameter within about 5e-4 of itself; about half of `Online`).
+    Half,
     /// As `Online`, with the target networks (about half).
     Targets,
     /// Everything but the replay buffer: bit for bit what a checkpoint holds.
@@ -431,6 +440,7 @@ impl RescueLevel {
     pub fn key(self) -> &'static str {
         match self {
             Self::Online => "online",
+            Self::Half => "half",
             Self::Targets => "targets",
             Self::Full => "full",
         }
@@ -441,6 +451,9 @@ impl RescueLevel {
     pub fn loses(self) -> &'static str {
         match self {
             Self::Online => "the replay buffer, the target networks (restored as the online ones) and Adam's moments",
+            Self::Half => {
+                "the replay buffer, the target networks (restored as the online ones), Adam's moments and the networks' precision below f16"
+            }
             Self::Targets => "the replay buffer and Adam's moments",
             Self::Full => "the replay buffer",
         }
@@ -452,10 +465,12 @@ impl RescueLevel {
 /// below [`RescueLevel::Full`] the targets and optimiser moments are left
 /// empty, which [`fmsr_core::Algorithm::load_rescue_state`] restores as the
 /// online networks and fresh moments (and which a whole-state reader refuses).
-/// The result is a learner state of this build's format.
+/// The result is a learner state of this build's format; at
+/// [`RescueLevel::Half`], one whose networks are `f16` (the module `half`).
 ///
 /// # Errors
-/// [`NnError::CorruptState`] when `learner_state` is not a learner state of this build.
+/// [`NnError::CorruptState`] when `learner_state` is not a learner state of
+/// this build; [`NnError::InvalidConfig`] at `Half` for a parameter beyond `f16`'s range.
 pub fn rescue_state(learner_state: &[u8], level: RescueLevel) -> Result<Vec<u8>, NnError> {
     let (mut body, saved) = decode_learner(learner_state)?;
     let SavedRule::Typed(rule) = saved else {
@@ -468,13 +483,14 @@ pub fn rescue_state(learner_state: &[u8], level: RescueLevel) -> Result<Vec<u8>,
     if level != RescueLevel::Full {
         body.actor_optim.iter_mut().chain(&mut body.critic_optim).for_each(Vec::clear);
     }
-    if level == RescueLevel::Online {
+    if matches!(level, RescueLevel::Online | RescueLevel::Half) {
         for a in &mut body.agents {
             a.actor_target.clear();
             a.critic_targets.iter_mut().for_each(Vec::clear);
         }
     }
-    encode(&LEARNER, &LearnerState { learner: body, rule })
+    let state = LearnerState { learner: body, rule };
+    if level == RescueLevel::Half { half::pack(state) } else { encode(&LEARNER, &state) }
 }
 
 impl LearnerBody {

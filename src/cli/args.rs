@@ -157,7 +157,8 @@ pub(super) struct RescueArgs {
     #[arg(long)]
     pub(super) out: Option<PathBuf>,
     /// What to keep of the learner: `online` (the online networks; targets restored as
-    /// them, Adam's moments fresh; about a quarter of a checkpoint), `targets`, or `full`
+    /// them, Adam's moments fresh; about a quarter of a checkpoint), `half` (as `online`,
+    /// the networks at f16 precision: about half of that), `targets`, or `full`
     /// (everything but the replay buffer).
     #[arg(long, value_enum, default_value = "online")]
     pub(super) keep: KeepArg,
@@ -166,6 +167,7 @@ pub(super) struct RescueArgs {
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
 pub(super) enum KeepArg {
     Online,
+    Half,
     Targets,
     Full,
 }
@@ -174,6 +176,7 @@ impl From<KeepArg> for fmsr_nn::RescueLevel {
     fn from(k: KeepArg) -> Self {
         match k {
             KeepArg::Online => Self::Online,
+            KeepArg::Half => Self::Half,
             KeepArg::Targets => Self::Targets,
             KeepArg::Full => Self::Full,
         }
