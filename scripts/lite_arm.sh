@@ -70,6 +70,8 @@ if [ -n "$rescue_at" ]; then
     train_to "$rescue_at"
     "$bin" rescue "$run" --keep online --out "$point.tmp"
     mv "$point.tmp" "$point"
+  elif [ ! -f "$point" ]; then
+    echo "$0: $run is past epoch $rescue_at without $point: no rescue point there (never one from a later epoch)" >&2
   fi
 fi
 train_to "$epochs"
