@@ -56,7 +56,8 @@ use serde::{Deserialize, Serialize};
 use fmsr_core::method::Method;
 use fmsr_core::prelude::*;
 use fmsr_core::replay::ReplayConfig;
-use fmsr_core::sharing::SharingConfig;
+use fmsr_core::shadow::ShadowConfig;
+use fmsr_core::sharing::{ShareMode, ShareTarget, SharingConfig};
 use fmsr_envs::shadow_hand::{GoalDistance, ShadowHandConfig};
 
 pub use crate::error::ExperimentError;
@@ -477,8 +478,11 @@ impl ExperimentConfig {
     /// `current teammates` when the actors' loss takes the teammates' current
     /// policies ([`Teammates::Current`]), `global actors`
     /// ([`ActorView::Global`]) and `shared critic (trunk)`
-    /// ([`CriticTying`]), so that an ablation is never pooled with the
-    /// method's runs; and by the algorithm and the training engine when they
+    /// ([`CriticTying`]); by the shadow rewards' `alpha` where it is not the
+    /// default 0.1 (e.g. `alpha 0.03`), and by information sharing's mode and
+    /// target where they are not the paper's parameters and actors (`IS on
+    /// gradients`, `IS on critics`, `IS on actors and critics`), so that an
+    /// ablation is never pooled with the method's runs; and by the algorithm and the training engine when they
     /// are not the paper's (MADDPG, rapier here), e.g. `Dense, MATD3, trained
     /// on MuJoCo`, so that a report never pools runs of two algorithms or two
     /// engines as seeds of one configuration.
@@ -500,6 +504,21 @@ impl ExperimentConfig {
         }
         if self.graph.actor_observation == ActorView::Global {
             label.push_str(", global actors");
+        }
+        let shadow = &self.trainer.shadow;
+        if self.method.shadow() && shadow.alpha != ShadowConfig::default().alpha {
+            label.push_str(&format!(", alpha {}", shadow.alpha));
+        }
+        if self.method.sharing() {
+            let sharing = self.sharing.clone().unwrap_or_default();
+            if sharing.mode == ShareMode::Gradients {
+                label.push_str(", IS on gradients");
+            }
+            match sharing.target {
+                ShareTarget::Actors => {}
+                ShareTarget::Critics => label.push_str(", IS on critics"),
+                ShareTarget::Both => label.push_str(", IS on actors and critics"),
+            }
         }
         match self.networks.critic {
             CriticTying::PerAgent => {}
@@ -702,6 +721,27 @@ mod label_tests {
         assert_eq!(with("masac", Engine::Mujoco), "Dense, MASAC, trained on MuJoCo");
         assert_eq!(with("maddpg", Engine::Mujoco), "Dense, trained on MuJoCo");
         assert_eq!(with("not_registered_here", Engine::Rapier), "Dense, NOT_REGISTERED_HERE");
+    }
+
+    // Guards the report's grouping of issue 52's experiments: E3's runs with
+    // another shadow weight and E5's information sharing on gradients were
+    // labelled as the method alone, so a report over them and E2's runs
+    // pooled them as more seeds of Dense+FMSR+IS.
+    #[test]
+    fn shadow_weight_and_sharing_changes_are_labelled_apart() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/lite");
+        let method = ExperimentConfig::load(&root.join("egg_dense_fmsr_is.toml")).unwrap();
+        assert_eq!(method.label(), "Dense+FMSR+IS");
+        let alpha = ExperimentConfig::load(&root.join("alpha/egg_dense_fmsr_is_alpha003.toml")).unwrap();
+        assert_eq!(alpha.label(), "Dense+FMSR+IS, alpha 0.03, trained on MuJoCo");
+        let gradients = ExperimentConfig::load(&root.join("ablation/egg_dense_fmsr_is_gradient_sharing.toml")).unwrap();
+        assert_eq!(gradients.label(), "Dense+FMSR+IS, IS on gradients");
+        let mut critics = method.clone();
+        critics.sharing.get_or_insert_with(Default::default).target = fmsr_core::sharing::ShareTarget::Both;
+        assert_eq!(critics.label(), "Dense+FMSR+IS, IS on actors and critics");
+        // Dense+FMSR neither shares nor changes its label for sharing's defaults.
+        let fmsr = ExperimentConfig::load(&root.join("egg_dense_fmsr.toml")).unwrap();
+        assert_eq!(fmsr.label(), "Dense+FMSR");
     }
 
     /// `section.key` → value of every setting of a TOML file (the run's name left out).
