@@ -482,7 +482,10 @@ impl ExperimentConfig {
     /// default 0.1 (e.g. `alpha 0.03`), and by information sharing's mode and
     /// target where they are not the paper's parameters and actors (`IS on
     /// gradients`, `IS on critics`, `IS on actors and critics`), so that an
-    /// ablation is never pooled with the method's runs; and by the algorithm and the training engine when they
+    /// ablation is never pooled with the method's runs; by `yaw distance` for
+    /// the task of the records before 2026-11-27 (success by the rotation
+    /// about Z alone, [`GoalDistance::Yaw`]), so that they are never pooled
+    /// with runs of the paper's task; and by the algorithm and the training engine when they
     /// are not the paper's (MADDPG, rapier here), e.g. `Dense, MATD3, trained
     /// on MuJoCo`, so that a report never pools runs of two algorithms or two
     /// engines as seeds of one configuration.
@@ -504,6 +507,9 @@ impl ExperimentConfig {
         }
         if self.graph.actor_observation == ActorView::Global {
             label.push_str(", global actors");
+        }
+        if self.env.goal_distance == GoalDistance::Yaw {
+            label.push_str(", yaw distance");
         }
         let shadow = &self.trainer.shadow;
         if self.method.shadow() && shadow.alpha != ShadowConfig::default().alpha {
@@ -724,9 +730,10 @@ mod label_tests {
     }
 
     // Guards the report's grouping of issue 52's experiments: E3's runs with
-    // another shadow weight and E5's information sharing on gradients were
-    // labelled as the method alone, so a report over them and E2's runs
-    // pooled them as more seeds of Dense+FMSR+IS.
+    // another shadow weight, E5's information sharing on gradients and the
+    // runs of the yaw-only task before it were labelled as the method alone,
+    // so a report over them and E2's runs pooled them as more seeds of
+    // Dense+FMSR+IS, and `fmsr run` set the yaw-era policy beside its run.
     #[test]
     fn shadow_weight_and_sharing_changes_are_labelled_apart() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/lite");
@@ -739,6 +746,13 @@ mod label_tests {
         let mut critics = method.clone();
         critics.sharing.get_or_insert_with(Default::default).target = fmsr_core::sharing::ShareTarget::Both;
         assert_eq!(critics.label(), "Dense+FMSR+IS, IS on actors and critics");
+        // A saved run of the yaw-only task (its config names no distance) is another task.
+        let yaw = ExperimentConfig::from_saved_toml(
+            &method.to_toml().unwrap().replace("goal_distance = \"full\"\n", ""),
+            &root,
+        )
+        .unwrap();
+        assert_eq!(yaw.label(), "Dense+FMSR+IS, yaw distance");
         // Dense+FMSR neither shares nor changes its label for sharing's defaults.
         let fmsr = ExperimentConfig::load(&root.join("egg_dense_fmsr.toml")).unwrap();
         assert_eq!(fmsr.label(), "Dense+FMSR");

@@ -354,7 +354,8 @@ impl EvalReport {
         (!self.records.is_empty()).then_some((lost, gained))
     }
 
-    /// Whether `other` has the same results: everything but the wall time
+    /// Whether `other` has the same results: everything but the wall time and
+    /// the configuration's label, which later builds may spell otherwise
     /// (every episode's outcome, final angle and grasp measures, the trace).
     /// What only one of the two records (an evaluation written before the
     /// hold-still simulation or the final orientations existed) is not compared.
@@ -363,7 +364,7 @@ impl EvalReport {
         let still = self.still.is_some() && other.still.is_some();
         let orientation = self.records.iter().chain(&other.records).all(|r| r.orientation.is_some());
         let common = |e: &EvalReport| {
-            let mut e = EvalReport { seconds: 0.0, ..e.clone() };
+            let mut e = EvalReport { seconds: 0.0, method: String::new(), ..e.clone() };
             if !still {
                 e.still = None;
             }
@@ -510,5 +511,20 @@ mod tests {
         // Files of older versions: the chance level from their list of initial distances.
         let old = EvalReport { records: Vec::new(), initial_distances: vec![0.39, 0.4, 0.41, 0.0], ..e };
         assert_eq!(old.still_success(), Interval::wilson(2, 4));
+    }
+
+    // Guards `fmsr eval`'s check of a policy file against the evaluation it
+    // carries: when the configuration's label gained `yaw distance`, every
+    // shipped policy's evaluation "differed" from the one it carries, though
+    // every episode ended as before. The label and the wall time are not
+    // results; an episode's outcome is.
+    #[test]
+    fn the_same_results_under_another_label_are_the_same() {
+        let e = report(SuccessRule::ReachedAndHeld);
+        let relabelled = EvalReport { method: "Dense, yaw distance".into(), seconds: 9.0, ..e.clone() };
+        assert!(e.same_results(&relabelled));
+        let mut other = e.clone();
+        other.records[40].final_error = 0.9;
+        assert!(!e.same_results(&other));
     }
 }
