@@ -8,6 +8,14 @@
 # where the run stands.
 #
 #   scripts/lite_arm.sh --bin FMSR --config C --seed S --engine E --run R [--rescue-at K] [--rescue-from F] [--epochs N]
+#   scripts/lite_arm.sh --bin FMSR --run R --save DIR [--keep online|half] [--records DIR2]
+#
+# --save, at a session's end, trains nothing: it writes R's rescue point of
+# now (`fmsr rescue --keep online`, or `half` where the tree lacks room: a
+# build of 5cf0cd5 or later writes and reads it, whatever binary trains R) and
+# its config.toml into DIR (to commit; a later session goes on from them with
+# --rescue-from DIR/rescue.fmsr if R is lost), and with --records copies R's
+# config.toml, provenance.json, metrics.csv and restarts.jsonl into DIR2.
 #
 # Where it goes on from, in order:
 #   - R has a checkpoint: `fmsr train --resume` (exact, replay buffer included);
@@ -24,7 +32,7 @@
 # learner thread (RAYON_NUM_THREADS=1), so two arms side by side take a core each.
 set -euo pipefail
 
-bin= config= seed= engine= run= rescue_at= rescue_from= epochs=40
+bin= config= seed= engine= run= rescue_at= rescue_from= epochs=40 save= keep=online records=
 while [ $# -gt 0 ]; do
   case $1 in
     --bin) bin=$2 ;;
@@ -35,6 +43,9 @@ while [ $# -gt 0 ]; do
     --rescue-at) rescue_at=$2 ;;
     --rescue-from) rescue_from=$2 ;;
     --epochs) epochs=$2 ;;
+    --save) save=$2 ;;
+    --keep) keep=$2 ;;
+    --records) records=$2 ;;
     *) echo "$0: unknown argument $1" >&2; exit 2 ;;
   esac
   shift 2
@@ -43,6 +54,23 @@ for v in bin run; do
   [ -n "${!v}" ] || { echo "$0: --$v is required" >&2; exit 2; }
 done
 export RAYON_NUM_THREADS=1
+
+if [ -n "$save" ]; then
+  [ -f "$run/checkpoint.bin" ] || { echo "$0: $run has no checkpoint to save" >&2; exit 2; }
+  mkdir -p "$save"
+  "$bin" rescue "$run" --keep "$keep" --out "$save/rescue.fmsr.tmp"
+  mv "$save/rescue.fmsr.tmp" "$save/rescue.fmsr"
+  cp "$run/config.toml" "$save/config.toml"
+  if [ -n "$records" ]; then
+    mkdir -p "$records"
+    for f in config.toml provenance.json metrics.csv restarts.jsonl; do
+      if [ -f "$run/$f" ]; then cp "$run/$f" "$records/$f"; fi
+    done
+  fi
+  n=$([ -f "$run/metrics.csv" ] && echo $(($(wc -l < "$run/metrics.csv") - 1)) || echo 0)
+  echo "$run: saved after $n epochs into $save ($keep)${records:+, records into $records}"
+  exit 0
+fi
 
 train_to() {
   local to=$1
