@@ -55,23 +55,6 @@ for v in bin run; do
 done
 export RAYON_NUM_THREADS=1
 
-if [ -n "$save" ]; then
-  [ -f "$run/checkpoint.bin" ] || { echo "$0: $run has no checkpoint to save" >&2; exit 2; }
-  mkdir -p "$save"
-  "$bin" rescue "$run" --keep "$keep" --out "$save/rescue.fmsr.tmp"
-  mv "$save/rescue.fmsr.tmp" "$save/rescue.fmsr"
-  cp "$run/config.toml" "$save/config.toml"
-  if [ -n "$records" ]; then
-    mkdir -p "$records"
-    for f in config.toml provenance.json metrics.csv restarts.jsonl; do
-      if [ -f "$run/$f" ]; then cp "$run/$f" "$records/$f"; fi
-    done
-  fi
-  n=$([ -f "$run/metrics.csv" ] && echo $(($(wc -l < "$run/metrics.csv") - 1)) || echo 0)
-  echo "$run: saved after $n epochs into $save ($keep)${records:+, records into $records}"
-  exit 0
-fi
-
 train_to() {
   local to=$1
   if [ -f "$run/checkpoint.bin" ]; then
@@ -90,6 +73,22 @@ train_to() {
 done_epochs() {
   [ -f "$run/metrics.csv" ] && echo $(($(wc -l < "$run/metrics.csv") - 1)) || echo 0
 }
+
+if [ -n "$save" ]; then
+  [ -f "$run/checkpoint.bin" ] || { echo "$0: $run has no checkpoint to save" >&2; exit 2; }
+  mkdir -p "$save"
+  "$bin" rescue "$run" --keep "$keep" --out "$save/rescue.fmsr.tmp"
+  mv "$save/rescue.fmsr.tmp" "$save/rescue.fmsr"
+  cp "$run/config.toml" "$save/config.toml"
+  if [ -n "$records" ]; then
+    mkdir -p "$records"
+    for f in config.toml provenance.json metrics.csv restarts.jsonl; do
+      if [ -f "$run/$f" ]; then cp "$run/$f" "$records/$f"; fi
+    done
+  fi
+  echo "$run: saved after $(done_epochs) epochs into $save ($keep)${records:+, records into $records}"
+  exit 0
+fi
 
 mkdir -p "$run"
 if [ -n "$rescue_at" ]; then

@@ -485,8 +485,8 @@ impl ExperimentConfig {
     /// ablation is never pooled with the method's runs; by `yaw distance` for
     /// the task of the records before 2026-11-27 (success by the rotation
     /// about Z alone, [`GoalDistance::Yaw`]), so that they are never pooled
-    /// with runs of the paper's task; and by the algorithm and the training engine when they
-    /// are not the paper's (MADDPG, rapier here), e.g. `Dense, MATD3, trained
+    /// with runs of the paper's task; and by the algorithm and the training
+    /// engine when they are not the paper's (MADDPG, rapier here), e.g. `Dense, MATD3, trained
     /// on MuJoCo`, so that a report never pools runs of two algorithms or two
     /// engines as seeds of one configuration.
     #[must_use]
@@ -516,11 +516,14 @@ impl ExperimentConfig {
             label.push_str(&format!(", alpha {}", shadow.alpha));
         }
         if self.method.sharing() {
-            let sharing = self.sharing.clone().unwrap_or_default();
-            if sharing.mode == ShareMode::Gradients {
+            let (mode, target) = self
+                .sharing
+                .as_ref()
+                .map_or_else(|| (ShareMode::default(), ShareTarget::default()), |s| (s.mode, s.target));
+            if mode == ShareMode::Gradients {
                 label.push_str(", IS on gradients");
             }
-            match sharing.target {
+            match target {
                 ShareTarget::Actors => {}
                 ShareTarget::Critics => label.push_str(", IS on critics"),
                 ShareTarget::Both => label.push_str(", IS on actors and critics"),
