@@ -5,6 +5,13 @@
 //! with `dirty` set when tracked files differed from it, so a result names the
 //! code it came from. Outside a git checkout (or without `git`) both are
 //! absent, and the record says so rather than guessing.
+//!
+//! The binary's own commit is recorded beside it (`build_commit`,
+//! `build_dirty`, from `build.rs` when the binary was built in a git
+//! checkout): where a binary built at one commit runs from a checkout at
+//! another (a long run's kept binary, `scripts/lite_arm.sh --bin`), the two
+//! differ and the build's is the code that ran. Records written before
+//! 2026-11-28 have no build commit.
 
 use std::path::Path;
 use std::process::Command;
@@ -18,6 +25,13 @@ pub struct Provenance {
     pub commit: Option<String>,
     /// Whether tracked files had uncommitted changes (`None`: unknown).
     pub dirty: Option<bool>,
+    /// The commit the binary was built from (`None`: built outside a git
+    /// checkout, or a record older than the field).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub build_commit: Option<String>,
+    /// Whether the build's tracked files differed from `build_commit`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub build_dirty: Option<bool>,
     /// The `fmsr` crate version of the binary.
     pub version: String,
     /// The cargo features the binary was built with.
@@ -46,6 +60,8 @@ impl Provenance {
         Self {
             commit,
             dirty,
+            build_commit: option_env!("FMSR_BUILD_COMMIT").map(str::to_owned),
+            build_dirty: option_env!("FMSR_BUILD_DIRTY").map(|d| d == "1"),
             version: env!("CARGO_PKG_VERSION").into(),
             features: build_features(),
             command: std::env::args().collect(),
@@ -83,4 +99,28 @@ fn build_features() -> Vec<String> {
     .filter(|(_, on)| *on)
     .map(|(name, _)| name.to_owned())
     .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_record_from_before_the_build_commit_reads_and_writes_back_the_same() {
+        let old = r#"{"commit":"49a82c6","dirty":false,"version":"0.1.0","features":["mujoco"],"command":["fmsr"],"started_unix":1}"#;
+        let p: Provenance = serde_json::from_str(old).unwrap();
+        assert_eq!((p.build_commit.as_deref(), p.build_dirty), (None, None));
+        assert_eq!(serde_json::to_string(&p).unwrap(), old);
+    }
+
+    #[test]
+    fn this_process_names_the_commit_it_was_built_from() {
+        let p = Provenance::of_this_process(Path::new("."));
+        assert_eq!(p.build_commit.as_deref(), option_env!("FMSR_BUILD_COMMIT"));
+        if let Some(commit) = &p.build_commit {
+            assert_eq!(commit.len(), 40, "{commit}");
+            assert!(commit.bytes().all(|b| b.is_ascii_hexdigit()), "{commit}");
+            assert!(p.build_dirty.is_some());
+        }
+    }
 }

@@ -35,6 +35,9 @@ fn train_eval_report_and_resume() {
     let provenance: fmsr::provenance::Provenance =
         serde_json::from_slice(&std::fs::read(run.join("provenance.json")).unwrap()).unwrap();
     assert!(provenance.command.iter().any(|a| a == "--seed"), "{provenance:?}");
+    // The binary's own commit (build.rs), not only the directory's: a kept
+    // binary run from a newer checkout once recorded the checkout's commit alone.
+    assert_eq!(provenance.build_commit.as_deref(), option_env!("FMSR_BUILD_COMMIT"), "{provenance:?}");
     assert_eq!(std::fs::read_to_string(run.join("metrics.jsonl")).unwrap().lines().count(), 1);
 
     // A second train into the same directory must not overwrite the run.
