@@ -4,7 +4,7 @@
 //! checkpoint (with its replay buffer read back from the replay log, wrapped
 //! or not) continues exactly as the uninterrupted run; corrupted, truncated or mismatched checkpoints are clear errors.
 
-mod common;
+use crate::common;
 
 use common::{learning_stats, team_reach_trainer, team_reach_trainer_config};
 use fmsr::prelude::*;

@@ -8,7 +8,7 @@
 //! and a damaged one is an error naming what is wrong; training's progress
 //! reaches a log one line per epoch.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -6,7 +6,7 @@
 //! registered by name, fmsr's own command trains, resumes, exports and
 //! evaluates it from a config that says `algorithm = "iddpg"`.
 
-mod common;
+use crate::common;
 #[path = "../examples/custom_algorithm.rs"]
 #[allow(dead_code)]
 mod custom_algorithm;

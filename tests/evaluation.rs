@@ -5,7 +5,7 @@
 //! `export` keep reading it; a replay buffer that could never fit is refused
 //! before training, naming its key.
 
-mod common;
+use crate::common;
 
 use std::collections::HashSet;
 use std::path::Path;

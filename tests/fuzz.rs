@@ -5,7 +5,7 @@
 //! config, a valid config) every time: never a panic. Case counts are small
 //! in `cargo test`; `FMSR_FUZZ_CASES=N` runs more.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::sync::OnceLock;

@@ -19,7 +19,7 @@
 //! records only where the file has none for this CPU), before the tests. To
 //! record this CPU's (beside the others; only on code whose numbers are the
 //! reference, or when numbers are meant to change, in a commit of its own that
-//! says why): `FMSR_GOLDEN=record FMSR_GOLDEN_COMMIT=<commit> cargo test --test golden`.
+//! says why): `FMSR_GOLDEN=record FMSR_GOLDEN_COMMIT=<commit> cargo test --test integration -- golden::`.
 //!
 //! Besides the epochs and the greedy episode, each trace holds CRC-32Cs of the
 //! final parameters (every agent's online actor and critic) and of the saved
@@ -43,7 +43,7 @@
 //! on this machine and was removed: an avx2 CPU compares nothing until it
 //! records at a commit whose numbers are the reference.
 
-mod common;
+use crate::common;
 
 use fmsr::experiment::ExperimentConfig;
 use fmsr::prelude::*;
@@ -228,7 +228,7 @@ fn every_algorithm_repeats_its_recorded_run_bit_for_bit() {
         let known: Vec<&str> = golden.recordings.iter().map(|r| r.cpu.as_str()).collect();
         panic!(
             "{GOLDEN} holds recordings of {known:?}, none of this CPU's `{cpu}`: nothing to compare. Record one at a \
-             commit whose numbers are the reference: FMSR_GOLDEN=record FMSR_GOLDEN_COMMIT=<commit> cargo test --test golden"
+             commit whose numbers are the reference: FMSR_GOLDEN=record FMSR_GOLDEN_COMMIT=<commit> cargo test --test integration -- golden::"
         );
     };
     let now = traces();

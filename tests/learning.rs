@@ -4,7 +4,7 @@
 //! above a random policy's; and shadow rewards make the agents visit their
 //! feature (the safe region) more often than Dense alone.
 
-mod common;
+use crate::common;
 
 use common::{random_policy_success, team_reach_trainer, team_reach_trainer_with};
 use fmsr::prelude::*;

@@ -15,7 +15,7 @@
 //! replay segment are framed with CRC-32C, and the old segment still reads on
 //! a second resume; the policy file evaluates to the evaluation it carries.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -7,7 +7,7 @@
 //! reader, and a corrupted or truncated rescue point by its own reader, with
 //! typed errors.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

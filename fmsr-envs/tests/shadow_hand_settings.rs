@@ -5,7 +5,7 @@
 //! mean |q - ctrl| 0.057 rad, random actions 0/20 drops with 5.15 active touch
 //! sensors per step on average, 1.56k steps/s). Prints a markdown table; it is
 //! `#[ignore]`d because it takes about a minute:
-//! `cargo test -p fmsr-envs --test shadow_hand_settings -- --ignored --nocapture`.
+//! `cargo test -p fmsr-envs --test envs_integration -- shadow_hand_settings:: --ignored --nocapture`.
 //! The non-ignored test guards that the default settings stay stable under
 //! random actions.
 

@@ -3,7 +3,7 @@
 //! Adam), so a communicator that zeroes them freezes the networks, and every
 //! parameter's gradient and every normaliser update is reduced.
 
-mod common;
+use crate::common;
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};

@@ -3,7 +3,7 @@
 //! TD loss falls by more than 10x), and the actor loss decreases as the actor
 //! climbs the critic; polyak averaging moves targets by (1 - polyak).
 
-mod common;
+use crate::common;
 
 use fmsr_nn::prelude::*;
 

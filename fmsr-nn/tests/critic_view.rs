@@ -6,7 +6,7 @@
 //! so the joint action's columns land where each agent's critic reads them.
 //! It also guards that the learner, not the rule, counts the steps.
 
-mod common;
+use crate::common;
 
 use fmsr_core::algorithm::Algorithm;
 use fmsr_core::policy::{ActMode, PolicyOutput};

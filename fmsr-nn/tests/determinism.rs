@@ -3,7 +3,7 @@
 //! whatever the number of threads the agents' updates are split over; another
 //! seed gives other networks.
 
-mod common;
+use crate::common;
 
 use fmsr_core::sharing::{ShareMode, ShareTarget, Sharing};
 use fmsr_graph::{Graph, MetropolisHastings};

@@ -15,7 +15,7 @@
 //! does now (the same recorder on ac94283 itself gave the earlier file bit
 //! for bit; MADDPG's cases, which draw no normal, did not change).
 
-mod common;
+use crate::common;
 
 use common::AlgorithmKind;
 

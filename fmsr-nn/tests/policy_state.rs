@@ -6,7 +6,7 @@
 //! saved by the learner; a policy of another shape or algorithm, or corrupted
 //! bytes, is an `NnError` that leaves the learner unchanged.
 
-mod common;
+use crate::common;
 
 use common::AlgorithmKind;
 

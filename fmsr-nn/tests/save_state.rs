@@ -5,7 +5,7 @@
 //! asked; a state of another shape, algorithm or stacking, truncated or
 //! corrupted bytes are `NnError`s that leave the learner unchanged.
 
-mod common;
+use crate::common;
 
 use common::AlgorithmKind;
 

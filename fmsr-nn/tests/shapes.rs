@@ -2,7 +2,7 @@
 //! `[-1, 1]` with the agent's width, zero rows, wrong inputs and impossible
 //! configs rejected with typed errors, and the learners are `Send`.
 
-mod common;
+use crate::common;
 
 use fmsr_core::sharing::{ShareMode, ShareTarget, Sharing};
 use fmsr_graph::{Graph, MetropolisHastings};

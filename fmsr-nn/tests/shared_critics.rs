@@ -5,7 +5,7 @@
 //! design, and every algorithm trains with them. The paper's design
 //! (`PerAgent`) keeps a trunk per agent.
 
-mod common;
+use crate::common;
 
 use common::AlgorithmKind;
 

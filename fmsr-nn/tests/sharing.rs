@@ -5,7 +5,7 @@
 //! sharing nothing moves; gradient sharing keeps equal trunks equal while
 //! plain learning pulls them apart; critics are mixed only when targeted.
 
-mod common;
+use crate::common;
 
 use fmsr_core::sharing::{ShareMode, ShareTarget, Sharing};
 use fmsr_graph::{Graph, MetropolisHastings, average, disagreement};

@@ -9,7 +9,7 @@
 //! recording's CPU it is bit for bit).
 //!
 //! To record anew (only from a build that writes format 4):
-//! `FMSR_STATE_V4=record cargo test --workspace --test state_v4`. To record
+//! `FMSR_STATE_V4=record cargo test --workspace --test nn_integration -- state_v4::`. To record
 //! only what the saved learners do next, after a change meant to change it,
 //! run `FMSR_STATE_V4=expect` on a format-4 build with that change made: the
 //! exploring actions and MATD3's and MASAC's updates were recorded so when
@@ -17,7 +17,7 @@
 //! drawing from `rand_distr::StandardNormal` (the same command on c854538
 //! itself gave the earlier files bit for bit).
 
-mod common;
+use crate::common;
 
 use common::AlgorithmKind;
 

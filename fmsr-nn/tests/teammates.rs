@@ -4,7 +4,7 @@
 //! policies; with `Replay` (HER baselines' choice, the default) it does. The
 //! critics are frozen (learning rate 0) so only the actor loss's input differs.
 
-mod common;
+use crate::common;
 
 use common::AlgorithmKind;
 

@@ -8,7 +8,7 @@
 //! either teammates' actions. It also guards the steps' typed error for a
 //! temperature list that is not one per agent.
 
-mod common;
+use crate::common;
 
 use fmsr_core::agent::ObservationLayout;
 use fmsr_core::algorithm::Algorithm;

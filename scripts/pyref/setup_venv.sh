@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the Python reference venv (gymnasium-robotics 1.4.2 + mujoco 3.17.0) in
 # <repo>/target/pyref-venv for the optional parity test
-# `cargo test -p fmsr-envs --features mujoco --test mujoco_parity` (python_reference).
+# `cargo test -p fmsr-envs --features mujoco --test envs_integration -- mujoco_parity::` (python_reference).
 # Idempotent. Needs network access to PyPI the first time.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
