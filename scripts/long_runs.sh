@@ -61,8 +61,8 @@
 # Rescue points (issue 53). `record` also writes each run's rescue point,
 # `fmsr rescue RUN --keep $FMSR_LONG_RUNS_KEEP` (default `online`: the online
 # networks, normalisers, RNG, counters and occupancy, no replay, about 8 MB for
-# the paper's networks), into docs/results/paper_budget/<run>/rescue/
-# (rescue.fmsr, rescue.env: EPOCH, KEEP, WRITTEN), and
+# the paper's networks), into pretrained/<run>_paper/rescue/ (rescue.fmsr,
+# rescue.env: EPOCH, KEEP, WRITTEN; restarts.jsonl stays in the records), and
 # copies the snapshot best on the validation episodes so far to
 # pretrained/<run>_paper/best_so_far.fmsr (best_so_far.env: EPOCH), so a
 # policy and the state to go on from are in the repository whatever happens
@@ -290,9 +290,9 @@ home_binary() {
 }
 
 # Where the rescue point of the run recorded in $1 (its records' directory)
-# lies: in its records, where issue 53 puts it (rescue points are the one kind
-# of tracked file over 2 MiB allowed outside pretrained/).
-rescue_dir() { echo "$1/rescue"; }
+# lies: beside its policies in pretrained/ (tracked files over 2 MiB belong
+# there), not in its records.
+rescue_dir() { echo "$pretrained/$(basename "$1")_paper/rescue"; }
 
 # Restores recorded run $1 (its records' directory) into the home from its
 # rescue point, with this work tree's build; the driver restarts from it.
@@ -402,8 +402,6 @@ archive_earlier_record() {
   [ -f "$out/keeper.env" ] && [ "$(started "$out/keeper.env")" != "$(started "$dir/keeper.env")" ] || return 0
   was=$(sed -n 's/^STARTED=//p' "$out/keeper.env" | tr -d ':')
   mkdir -p "${records}_lost"
-  # The earlier run's rescue point cannot restart the new one: the history keeps it.
-  rm -rf "$(rescue_dir "$out")"
   mv "$out" "${records}_lost/$(basename "$out")-$was"
   echo "$(basename "$out"): the record of the run started $was is an earlier run's: moved to $(basename "$records")_lost/"
 }

@@ -105,7 +105,7 @@ mv "$FMSR_LONG_RUNS/egg_dense" "$scratch/egg_dense.kept"
 mv "$scratch/egg_dense.kept" "$FMSR_LONG_RUNS/egg_dense"
 # Records without rescue points (runs recorded before 2026-11-27): `resume`
 # cannot restore them and points at `lost`. (`record` writes them again below.)
-for run in egg_dense_fmsr_is egg_dense; do rm -r "$FMSR_LONG_RUNS_RECORDS/$run/rescue"; done
+for run in egg_dense_fmsr_is egg_dense; do rm -r "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/rescue"; done
 mv "$FMSR_LONG_RUNS" "$scratch/home.kept"
 "$keeper" resume > "$scratch/resumed"
 grep -q "not in the home: egg_dense egg_dense_fmsr_is; if the home was lost" "$scratch/resumed" || fail "resume did not point at lost: $(cat "$scratch/resumed")"
@@ -126,8 +126,8 @@ grep -q "Lost before" "$scratch/results.md" && fail "the section still says the 
 # their rescue points (this tree's build), the drivers restart from them, and
 # the restart is in the run's restarts.jsonl, the records and the section.
 for run in egg_dense_fmsr_is egg_dense; do
-  [ -s "$FMSR_LONG_RUNS_RECORDS/$run/rescue/rescue.fmsr" ] || fail "$run: record wrote no rescue point"
-  grep -q '^KEEP=online$' "$FMSR_LONG_RUNS_RECORDS/$run/rescue/rescue.env" || fail "$run: no rescue.env"
+  [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/rescue/rescue.fmsr" ] || fail "$run: record wrote no rescue point"
+  grep -q '^KEEP=online$' "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/rescue/rescue.env" || fail "$run: no rescue.env"
   [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/best_so_far.fmsr" ] || fail "$run: record kept no best policy so far"
 done
 mv "$FMSR_LONG_RUNS" "$scratch/home.lost"
