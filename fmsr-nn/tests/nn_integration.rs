@@ -1,8 +1,6 @@
 //! fmsr-nn's integration tests, one test binary: each module is one former
-//! `tests/*.rs` file and opens with what it guards. The crate's tests build at
-//! `opt-level = 3` (the workspace's dev profile), and each binary instantiated
-//! burn's generic networks again; one binary does it once (`docs/design.md`,
-//! "Tests and CI's build"). Select a module's tests by its path:
+//! `tests/*.rs` file and opens with what it guards; burn is linked once, not
+//! once per file (`docs/design.md`, "Tests and CI's build"). Select a module's tests by its path:
 //! `cargo test -p fmsr-nn --test nn_integration -- sharing::`.
 
 mod common;
