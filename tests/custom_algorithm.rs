@@ -9,9 +9,9 @@
 use crate::common;
 #[path = "../examples/custom_algorithm.rs"]
 #[allow(dead_code)]
-mod custom_algorithm;
+mod example;
 
-use custom_algorithm::{Iddpg, IddpgConfig, IddpgRule};
+use example::{Iddpg, IddpgConfig, IddpgRule};
 use fmsr::experiment::ExperimentConfig;
 use fmsr::prelude::*;
 
@@ -23,7 +23,7 @@ const SUCCESS: f64 = 0.8;
 fn iddpg_as_a_rule_learns_team_reach_and_resumes_exactly() {
     let seeds: Vec<u64> = (0..100).map(|i| 10_000 + i).collect();
     let random = common::random_policy_success(&seeds);
-    let (mut trainer, learned) = custom_algorithm::train_team_reach(1, 12).unwrap();
+    let (mut trainer, learned) = example::train_team_reach(1, 12).unwrap();
     eprintln!("IDDPG: success {learned:.2} (random {random:.2})");
     assert!(learned >= SUCCESS && learned >= random + 0.4, "IDDPG reached {learned}, random policy {random}");
 
@@ -31,7 +31,7 @@ fn iddpg_as_a_rule_learns_team_reach_and_resumes_exactly() {
     let state = trainer.algorithm().save_state(true).unwrap();
     let env = TeamReachConfig::default().init().unwrap();
     let fresh = || {
-        let parts = custom_algorithm::team_reach_parts(&env, 2, 0.95).unwrap();
+        let parts = example::team_reach_parts(&env, 2, 0.95).unwrap();
         Iddpg::with_rule(parts, IddpgRule::default()).unwrap()
     };
     let mut copy = fresh();
@@ -97,7 +97,7 @@ fn iddpg_trains_a_shadow_hand_epoch_of_an_experiment_with_sharing() {
     let config = ExperimentConfig::from_toml(&common::tiny_config_text(), "tiny.toml".as_ref()).unwrap();
     assert!(config.sharing_config().enabled, "the tiny config shares information");
     let env = config.env_config().init().unwrap();
-    let mut trainer = custom_algorithm::on_experiment(&config, vec![env]).unwrap();
+    let mut trainer = example::on_experiment(&config, vec![env]).unwrap();
     let before = trainer.algorithm().actor_trunk(0).unwrap();
     let stats = trainer.run_epoch().unwrap();
     assert!(stats.updates > 0, "the epoch updated the networks");
