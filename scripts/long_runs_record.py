@@ -314,7 +314,7 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
         lines.append(
             f"- `{r['name']}`: started {e.get('STARTED', '?')} with the binary of commit `{e.get('COMMIT', '?')[:10]}` "
             f"(`{Path(e.get('BIN', '?')).name}`"
-            + (f" since its restore: {e['BIN_NOTE']}" if e.get("BIN_NOTE") else ", kept for the whole run")
+            + (f" since its restore: {e['BIN_NOTE'].strip(chr(34))}" if e.get("BIN_NOTE") else ", kept for the whole run")
             + "); config and metrics in "
             f"[`{records_rel}/{r['name']}/`]({records_rel}/{r['name']}/)." + restarts_note(r)
         )
