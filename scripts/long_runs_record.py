@@ -65,7 +65,8 @@ def keeper_env(path):
         for line in path.read_text().splitlines():
             if "=" in line:
                 k, v = line.split("=", 1)
-                env[k] = v
+                # A value the shell sources quoted (BIN_NOTE="...") is read without its quotes.
+                env[k] = v[1:-1] if len(v) >= 2 and v[0] == v[-1] == '"' else v
     return env
 
 
@@ -314,7 +315,7 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
         lines.append(
             f"- `{r['name']}`: started {e.get('STARTED', '?')} with the binary of commit `{e.get('COMMIT', '?')[:10]}` "
             f"(`{Path(e.get('BIN', '?')).name}`"
-            + (f" since its restore: {e['BIN_NOTE'].strip(chr(34))}" if e.get("BIN_NOTE") else ", kept for the whole run")
+            + (f" since its restore: {e['BIN_NOTE']}" if e.get("BIN_NOTE") else ", kept for the whole run")
             + "); config and metrics in "
             f"[`{records_rel}/{r['name']}/`]({records_rel}/{r['name']}/)." + restarts_note(r)
         )

@@ -145,6 +145,9 @@ for run in egg_dense_fmsr_is egg_dense; do
 done
 "$keeper" record
 grep -q "Restarted at epoch 2 from its rescue point (kept \`online\`" "$scratch/results.md" || fail "the section does not show the restart"
+# A restored run's binary is the restore's, said without the env file's quotes (fixed 2026-11-29).
+grep -q 'since its restore: restored .* from the rescue point of epoch 2 with the build of' "$scratch/results.md" || fail "the section does not name the restore's binary"
+! grep -q 'kept for the whole run' "$scratch/results.md" || fail "the section says a restored run kept its binary"
 [ -f "$FMSR_LONG_RUNS_RECORDS/egg_dense_fmsr_is/restarts.jsonl" ] || fail "record did not copy the restarts"
 
 "$keeper" finish
