@@ -11,7 +11,8 @@ docs/results/<experiment>/<run>. Writes into D:
   was restarted from a rescue point), as they are;
 - eval.json, eval-validation.json and eval-<other engine>.json without the
   per-episode grasp summaries and the per-step trace (`episode_summaries`,
-  `trace`: about nine tenths of the bytes), compact; every other field,
+  `trace`: about nine tenths of the bytes), compact, by long_runs_record.py's
+  `trim` (the long runs' snapshots are kept alike); every other field,
   the per-episode records with their final orientation included, kept;
 - with --log (the arm's `lite_arm.sh` output), eval.log: the log from the
   last line that starts the training (`training ...`, `restarting ...`)
@@ -23,20 +24,14 @@ Refuses a run that has not been evaluated: the records are of a finished arm.
 """
 
 import argparse
-import json
 import os
 import shutil
 import sys
+from pathlib import Path
+
+from long_runs_record import trim, write_atomic  # the long runs' snapshots are trimmed alike
 
 COPIED = ("config.toml", "provenance.json", "metrics.csv", "restarts.jsonl")
-TRIMMED = ("episode_summaries", "trace")
-
-
-def atomic_write(path, text):
-    tmp = path + ".tmp"
-    with open(tmp, "w") as f:
-        f.write(text)
-    os.replace(tmp, path)
 
 
 def eval_log(log_path):
@@ -70,13 +65,11 @@ def main():
         if os.path.exists(src):
             shutil.copyfile(src, os.path.join(a.records, f))
     for f in evals:
-        with open(os.path.join(a.run, f)) as fh:
-            d = json.load(fh)
-        for key in TRIMMED:
-            d.pop(key, None)
-        atomic_write(os.path.join(a.records, f), json.dumps(d, separators=(",", ":")))
+        out = Path(a.records, f)
+        write_atomic(out, Path(a.run, f).read_text())
+        trim(out)
     if a.log:
-        atomic_write(os.path.join(a.records, "eval.log"), eval_log(a.log))
+        write_atomic(Path(a.records, "eval.log"), eval_log(a.log))
     if a.policy:
         src = os.path.join(a.run, "policy.fmsr")
         if not os.path.exists(src):
