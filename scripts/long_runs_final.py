@@ -210,6 +210,16 @@ def against_paper(d, fewer="below", more="above"):
     return "as the paper" if d[1] <= 0 <= d[2] else (f"{fewer} the paper" if d[2] < 0 else f"{more} the paper")
 
 
+def best_on(r, engine):
+    """The best snapshot's test evaluation when it was on `engine`, else None.
+
+    Snapshots are evaluated on the engine the run trains on (`fmsr eval` of a
+    policy file), so a MuJoCo-trained run's best snapshot belongs in the
+    MuJoCo rows, not the rapier ones."""
+    e = r["best_test"]
+    return e if e is not None and e.get("engine", "rapier") == engine else None
+
+
 def absolute_rows(runs, engine):
     """Success and drop rates against the paper's own values (on a common scale)."""
     rows = []
@@ -219,7 +229,7 @@ def absolute_rows(runs, engine):
             continue
         p = wilson(paper[0], PAPER_TRIALS["table1"])
         for what, e in (("after the last epoch", r["finals"][f"test-{engine}"]),
-                        (f"snapshot best on validation (epoch {r['best']} from 0)", r["best_test"] if engine == "rapier" else None)):
+                        (f"snapshot best on validation (epoch {r['best']} from 0)", best_on(r, engine))):
             if e is None:
                 continue
             s = success(e)

@@ -237,6 +237,10 @@ def lost_runs(lost, records_rel):
     return lines
 
 
+# How the section names the engine an evaluation's JSON gives.
+ENGINE_NAMES = {"rapier": "rapier", "mujoco": "MuJoCo"}
+
+
 def latest_common_snapshot(runs):
     """The latest snapshot epoch every run has evaluated on the test set, or None."""
     common = set.intersection(*[{k for k, ev in r["snapshots"] if ev["test"]} for r in runs]) if runs else set()
@@ -255,7 +259,9 @@ def latest_orderings(runs, lost=False):
     ta, tb = (json.loads(path(r).read_text()) for r in (a, b))
     if "stability" not in ta or "stability" not in tb:
         return []
-    return ["", f"The paper's orderings of Table I, and the drops of its Table II, at snapshot {k}, on the fixed test set (rapier; our values mean ± std "
+    engine = ENGINE_NAMES.get(ta.get("engine", "rapier"), ta.get("engine"))
+    return ["", f"The paper's orderings of Table I, and the drops of its Table II, at snapshot {k}, on the fixed test set ({engine}, "
+            "the engine the snapshots are evaluated on, each run's own; our values mean ± std "
             "over the episodes; the verdict needs our 95 % interval of the difference to exclude zero). "
             + ("Lost before the end and one seed each: the final comparison, on both engines and with 500 trials for "
                "the drops (`finish`'s), was never run:" if lost else
