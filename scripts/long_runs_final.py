@@ -210,6 +210,22 @@ def against_paper(d, fewer="below", more="above"):
     return "as the paper" if d[1] <= 0 <= d[2] else (f"{fewer} the paper" if d[2] < 0 else f"{more} the paper")
 
 
+# How the results name the engine an evaluation's JSON gives (`engine`,
+# `trained_on`).
+ENGINE_NAMES = {"rapier": "rapier", "mujoco": "MuJoCo"}
+
+
+def engine_of(e, key="engine"):
+    """The engine an evaluation ran on (or, with key="trained_on", its policy
+    trained on); rapier for evaluations written before the field existed."""
+    return e.get(key, "rapier")
+
+
+def engine_name(e, key="engine"):
+    """engine_of, as the results write it."""
+    return ENGINE_NAMES.get(engine_of(e, key), engine_of(e, key))
+
+
 def best_on(r, engine):
     """The best snapshot's test evaluation when it was on `engine`, else None.
 
@@ -217,7 +233,7 @@ def best_on(r, engine):
     policy file), so a MuJoCo-trained run's best snapshot belongs in the
     MuJoCo rows, not the rapier ones."""
     e = r["best_test"]
-    return e if e is not None and e.get("engine", "rapier") == engine else None
+    return e if e is not None and engine_of(e) == engine else None
 
 
 def absolute_rows(runs, engine):
@@ -259,6 +275,11 @@ def table2_rows(runs, engine):
     return rows
 
 
+def trained_on(finals):
+    """The engines the runs trained on, as the results write them."""
+    return " and ".join(sorted({engine_name(f["finals"]["test-rapier"], "trained_on") for f in finals}))
+
+
 def section_lines(finals, records_rel, pretrained_rel):
     """The comparison with the paper of the runs' final evaluations (`load_final`), for the section of docs/results.md."""
     by_label = {f["label"]: f for f in finals}
@@ -266,7 +287,7 @@ def section_lines(finals, records_rel, pretrained_rel):
              "Written by `scripts/long_runs.sh finish`: the policy after the last epoch of each run (no selection), "
              f"evaluated on the fixed test set ({finals[0]['finals']['test-rapier']['episodes']} episodes), on the validation episodes and on the first "
              f"{finals[0]['finals']['trials-rapier']['episodes']} test episodes (the paper's Table II), on rapier "
-             f"(trained on) and on MuJoCo; evaluations in [`{records_rel}/<run>/final/`]({records_rel}/), "
+             f"and on MuJoCo (trained on {trained_on(finals)}); evaluations in [`{records_rel}/<run>/final/`]({records_rel}/), "
              f"`fmsr report` over both in [`{records_rel}/report/summary.md`]({records_rel}/report/summary.md), "
              f"the policies in [`{pretrained_rel}/`]({pretrained_rel}/).", ""]
     for engine in ("rapier", "mujoco"):

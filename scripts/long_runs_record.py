@@ -237,10 +237,6 @@ def lost_runs(lost, records_rel):
     return lines
 
 
-# How the section names the engine an evaluation's JSON gives.
-ENGINE_NAMES = {"rapier": "rapier", "mujoco": "MuJoCo"}
-
-
 def latest_common_snapshot(runs):
     """The latest snapshot epoch every run has evaluated on the test set, or None."""
     common = set.intersection(*[{k for k, ev in r["snapshots"] if ev["test"]} for r in runs]) if runs else set()
@@ -259,8 +255,8 @@ def latest_orderings(runs, lost=False):
     ta, tb = (json.loads(path(r).read_text()) for r in (a, b))
     if "stability" not in ta or "stability" not in tb:
         return []
-    engine = ENGINE_NAMES.get(ta.get("engine", "rapier"), ta.get("engine"))
-    return ["", f"The paper's orderings of Table I, and the drops of its Table II, at snapshot {k}, on the fixed test set ({engine}, "
+    return ["", f"The paper's orderings of Table I, and the drops of its Table II, at snapshot {k}, on the fixed test set "
+            f"({long_runs_final.engine_name(ta)}, "
             "the engine the snapshots are evaluated on, each run's own; our values mean ± std "
             "over the episodes; the verdict needs our 95 % interval of the difference to exclude zero). "
             + ("Lost before the end and one seed each: the final comparison, on both engines and with 500 trials for "
