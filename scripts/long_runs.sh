@@ -46,11 +46,15 @@
 # evaluation, per run: the policy after the last epoch (`final.fmsr` in the
 # home, exported by the run's own binary: no selection), evaluated on the fixed
 # test set, on the validation episodes and on the first TRIALS test episodes
-# (the paper's Table II: 500), on rapier and on MuJoCo, into
+# (the paper's Table II: 500), on rapier and on MuJoCo, each engine named
+# (`--engine`: `fmsr eval` alone takes the engine the run trained on), into
 # docs/results/paper_budget/<run>/final/; that policy, carrying its evaluations
 # (`fmsr eval --record`), as pretrained/<run>_paper/policy.fmsr, with the
 # snapshot best on the validation episodes beside it (best_on_validation.fmsr,
-# unless it is the final one), test episode 0 rendered and a README; then
+# unless it is the final one), test episode 0 rendered on the engine the run
+# trained on and a README; the rescue point and best_so_far.fmsr, which an
+# ended run no longer needs, are removed from pretrained/<run>_paper/ (git's
+# history keeps them; the tree would not hold them beside the final policies); then
 # `fmsr report` over those policies into docs/results/paper_budget/report/, and
 # the section again, now with the comparison with the paper
 # (scripts/long_runs_final.py). Each step skips what an earlier `finish` wrote,
@@ -506,19 +510,19 @@ eval_once() {
 }
 
 # Copies policy file $1 to $2 and writes into it its evaluations: the fixed
-# test set on both engines and the validation episodes; unless $2 exists.
+# test set and the validation episodes, each on both engines; unless $2 exists.
 # With $3, each evaluation also goes there as JSON (test-rapier.json,
-# validation-rapier.json, test-mujoco.json), from the same `fmsr eval`.
+# validation-rapier.json, test-mujoco.json, validation-mujoco.json), from the
+# same `fmsr eval`. Every engine is named: `fmsr eval` without `--engine` takes
+# the one the run trained on, which for the MuJoCo-trained pair would have put
+# MuJoCo evaluations in the rapier files.
 carry_evaluations() {
   local from=$1 to=$2 json=${3:-} what args
   [ -f "$to" ] && return
   cp "$from" "$to.tmp.fmsr"
-  for what in test-rapier validation-rapier test-mujoco; do
-    case $what in
-      test-rapier) args=() ;;
-      validation-rapier) args=(--set validation) ;;
-      test-mujoco) args=(--engine mujoco) ;;
-    esac
+  for what in test-rapier validation-rapier test-mujoco validation-mujoco; do
+    args=(--engine "${what#*-}")
+    [ "${what%%-*}" = test ] || args+=(--set validation)
     if [ -n "$json" ]; then
       nice -n 5 "$fmsr" eval "$to.tmp.fmsr" "${args[@]}" --record --out "$json/$what.json.tmp" > "$json/$what.log" 2>&1 \
         || die "fmsr eval $to ${args[*]} failed: $json/$what.log"
@@ -545,7 +549,7 @@ finish_run() {
    mv "$dir/final.fmsr.tmp" "$dir/final.fmsr")
   carry_evaluations "$dir/final.fmsr" "$pre/policy.fmsr" "$out"
   # The trials only as JSON: the file carries one test evaluation per engine, the 100.
-  eval_once "$out/trials-rapier.json" "$dir/final.fmsr" --episodes "$trials"
+  eval_once "$out/trials-rapier.json" "$dir/final.fmsr" --engine rapier --episodes "$trials"
   eval_once "$out/trials-mujoco.json" "$dir/final.fmsr" --engine mujoco --episodes "$trials"
   best=$(python3 "$repo/scripts/long_runs_final.py" best "$records/$name")
   last=$(($(planned "$dir") - 1))
@@ -559,8 +563,12 @@ finish_run() {
     [ -f "$snap" ] || die "$name: the snapshot of epoch $best, best on validation, is neither in the home nor in $pre"
     carry_evaluations "$snap" "$pre/best_on_validation.fmsr"
   fi
-  [ -f "$pre/render/episode-0-rapier.gif" ] || nice -n 5 "$fmsr" render "$pre"
+  # Test episode 0 on the engine the run trained on (`fmsr render`'s default).
+  compgen -G "$pre/render/episode-0-*.gif" > /dev/null || nice -n 5 "$fmsr" render "$pre"
   python3 "$repo/scripts/long_runs_final.py" readme "$records/$name" "$pre" --commit "$(git rev-parse --short HEAD)"
+  # The run has ended: its rescue point and best policy so far are superseded
+  # by policy.fmsr and best_on_validation.fmsr (history keeps them).
+  rm -rf "$pre/rescue" "$pre/best_so_far.fmsr" "$pre/best_so_far.env"
 }
 
 finish() {
@@ -580,6 +588,8 @@ finish() {
   done
   nice -n 5 "$fmsr" report "${policies[@]}" --out "$records/report"
   write_section
+  # What the policies add to the tracked tree (kept under 56 MiB, issue 53).
+  du -sh "${policies[@]}"
 }
 
 # Marks every recorded run the home does not hold as lost (lost.env in its

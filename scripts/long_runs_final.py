@@ -27,6 +27,7 @@ normal interval of a difference of means with each mean's standard error
 """
 
 import argparse
+import csv
 import json
 import math
 import sys
@@ -75,7 +76,11 @@ FIELDS = {
     "dq_vew": ("dq_vew", 1.0, 4),
     "q_dcc": ("q_dcc", 1e3, 1),
 }
-FINALS = ["test-rapier", "validation-rapier", "test-mujoco", "trials-rapier", "trials-mujoco"]
+# Each set on each engine, named by `fmsr eval --engine` (scripts/long_runs.sh
+# carry_evaluations): the validation episodes on both, since a MuJoCo-trained
+# run's snapshots are chosen on MuJoCo's.
+FINALS = ["test-rapier", "validation-rapier", "test-mujoco", "validation-mujoco", "trials-rapier", "trials-mujoco"]
+ENGINES = ("rapier", "mujoco")
 
 
 def wilson(k, n):
@@ -157,11 +162,14 @@ def load_final(run_records):
     k = best(run_records)
     snap = read_json(run_records / "snapshots" / f"epoch-{k:03d}.test.json") if k is not None else None
     val = read_json(run_records / "snapshots" / f"epoch-{k:03d}.validation.json") if k is not None else None
-    metrics = (run_records / "metrics.csv").read_text().splitlines()
-    env_steps = int(metrics[-1].split(",")[4]) if len(metrics) > 1 else 0
+    # By the column's name: its place moved when metrics.csv gained columns
+    # (2026-11-27), and the fifth column became train_success_rate.
+    with open(run_records / "metrics.csv", newline="") as fh:
+        metrics = list(csv.DictReader(fh))
+    env_steps = int(metrics[-1]["env_steps"]) if metrics else 0
     return {"name": run_records.name, "label": LABELS[method], "task": finals["test-rapier"]["task"],
-            "finals": finals, "best": k, "best_test": snap, "best_validation_episodes": val["episodes"] if val else 0,
-            "epochs": len(metrics) - 1, "env_steps": env_steps}
+            "engine": engine_of(finals["test-rapier"], "trained_on"), "finals": finals, "best": k, "best_test": snap, "best_validation_episodes": val["episodes"] if val else 0,
+            "epochs": len(metrics), "env_steps": env_steps}
 
 
 ORDERING_HEADER = ["| Measure | The paper: Dense+FMSR+IS | The paper: Dense | Ours: Dense+FMSR+IS | Ours: Dense | "
@@ -269,7 +277,7 @@ def table2_rows(runs, engine):
         e = r["finals"][f"trials-{engine}"]
         f = e["failures"]
         share = "n/a" if not f["failures"] else f"{100 * f['drop'] / f['failures']:.1f} %"
-        rows.append(f"| {r['label']} (ours, {engine}) | {e['episodes']} | {f['failures']} | {f['incomplete']} | {f['drop']} | {share} |")
+        rows.append(f"| {r['label']} (ours, {ENGINE_NAMES[engine]}) | {e['episodes']} | {f['failures']} | {f['incomplete']} | {f['drop']} | {share} |")
     for label, (fail, inc, drop) in PAPER_TABLE2[runs[0]["task"]].items():
         rows.append(f"| {label} (the paper) | 500 | {fail} | {inc} | {drop} | {100 * drop / fail:.1f} % |")
     return rows
@@ -277,7 +285,13 @@ def table2_rows(runs, engine):
 
 def trained_on(finals):
     """The engines the runs trained on, as the results write them."""
-    return " and ".join(sorted({engine_name(f["finals"]["test-rapier"], "trained_on") for f in finals}))
+    return " and ".join(sorted({ENGINE_NAMES.get(f["engine"], f["engine"]) for f in finals}))
+
+
+def engines_trained_first(finals):
+    """Both engines, the one the (first) run trained on first: its rows lead."""
+    home = finals[0]["engine"]
+    return (home,) + tuple(e for e in ENGINES if e != home)
 
 
 def section_lines(finals, records_rel, pretrained_rel):
@@ -290,57 +304,64 @@ def section_lines(finals, records_rel, pretrained_rel):
              f"and on MuJoCo (trained on {trained_on(finals)}); evaluations in [`{records_rel}/<run>/final/`]({records_rel}/), "
              f"`fmsr report` over both in [`{records_rel}/report/summary.md`]({records_rel}/report/summary.md), "
              f"the policies in [`{pretrained_rel}/`]({pretrained_rel}/).", ""]
-    for engine in ("rapier", "mujoco"):
-        lines += [f"**Against the paper's own values, {engine}** (success and drops only: the other measures are on "
+    for engine in engines_trained_first(finals):
+        shown = ENGINE_NAMES[engine]
+        lines += [f"**Against the paper's own values, {shown}** (success and drops only: the other measures are on "
                   "the paper's scale, not ours):", "",
                   "| Run | What | The paper | Ours | Ours minus the paper | |", "|---|---|---|---|---|---|"]
         lines += absolute_rows(finals, engine)
         lines.append("")
         a, b = by_label.get("Dense+FMSR+IS"), by_label.get("Dense")
         if a and b:
-            lines += [f"**The paper's orderings, Dense+FMSR+IS against Dense, {engine}** (the paper's Table I: 100 trials; "
+            lines += [f"**The paper's orderings, Dense+FMSR+IS against Dense, {shown}** (the paper's Table I: 100 trials; "
                       "our values mean ± std over the episodes):", ""] + ORDERING_HEADER
             lines += table1_rows(a, b, engine)
             lines.append("")
-        lines += [f"**Failure types (Table II), {engine}:**", "",
+        lines += [f"**Failure types (Table II), {shown}:**", "",
                   "| Policy | Trials | Failures | Incomplete | Drops | Drops of the failures |", "|---|---|---|---|---|---|"]
         lines += table2_rows(finals, engine)
         lines.append("")
     for f in finals:
         k = f["best"]
         t = f["best_test"]
-        lines.append(f"- {f['label']}: the snapshot best on validation is epoch {k}"
-                     + (f", test success {pct(success(t))}" if t else "") + ".")
+        lines.append(f"- {f['label']}: the snapshot best on validation ({f['best_validation_episodes']} episodes) is epoch {k}"
+                     + (f", test success on {engine_name(t)} {pct(success(t))}" if t else "") + ".")
     return lines
 
 
 def summary_bullet(finals, anchor):
     """The summary's line on the long runs once `finish` ran: the final policies' test success and drops."""
     cells = []
+    # On the engine each run trained on (the pair's: MuJoCo, the paper's engine).
+    test = lambda f: f["finals"][f"test-{f['engine']}"]
     for f in finals:
-        t, n = f["finals"]["test-rapier"], f["finals"]["trials-rapier"]
+        t, n = test(f), f["finals"][f"trials-{f['engine']}"]
         cells.append(f"{f['label']} {pct(success(t))} ({n['outcomes']['drop']} drops in {n['episodes']} trials)")
     text = (f"- **At the paper's budget ({finals[0]['epochs']} epochs), egg, seed 0, ended:** the policies after "
-            "the last epoch reach, on the fixed test set, " + " against ".join(cells))
+            f"the last epoch reach, on the fixed test set on {trained_on(finals)} (the engine they trained on), "
+            + " against ".join(cells))
     if len(finals) == 2:
-        text += f"; difference {pts(newcombe(success(finals[0]['finals']['test-rapier']), success(finals[1]['finals']['test-rapier'])))}"
+        text += f"; difference {pts(newcombe(success(test(finals[0])), success(test(finals[1]))))}"
     paper = "; ".join(f"{f['label']} {PAPER_TABLE1[f['task']][f['label']][0]} %" for f in finals if f["label"] in PAPER_TABLE1[f["task"]])
     return f"{text}. The paper: {paper}. Row by row against the paper: [the paper's budget](#{anchor}).\n"
 
 
 def pretrained_index(finals):
     """The lines of pretrained/README.md on the long runs' policies."""
-    lines = ["At the paper's budget (issue 37, `scripts/long_runs.sh finish`; egg, seed 0, rapier, the paper's config), "
-             "the policies after the last epoch, no selection:", "",
-             "| Policy | Configuration | Epochs | Test success, rapier (100) | Validation, rapier | Test success, MuJoCo (100) | "
-             "Drops in the Table II trials, rapier | Best snapshot on validation: test success |", "|---|---|---|---|---|---|---|---|"]
+    lines = ["At the paper's budget (issues 37 and 53, `scripts/long_runs.sh finish`; egg, seed 0, the paper's config), "
+             "the policies after the last epoch, no selection; test and validation on the engine each trained on, "
+             "then the test set on the other:", "",
+             "| Policy | Configuration | Epochs | Trained on | Test success (100) | Validation | Test success, other engine (100) | "
+             "Drops in the Table II trials | Best snapshot on validation: test success |", "|---|---|---|---|---|---|---|---|---|"]
     for f in finals:
         fin = f["finals"]
-        n = fin["trials-rapier"]
+        home = f["engine"]
+        other = next(e for e in ENGINES if e != home)
+        n = fin[f"trials-{home}"]
         best_cell = f"epoch {f['best']}: {pct(success(f['best_test']))}" if f["best_test"] else "n/a"
         lines.append(f"| [`{f['name']}_paper`]({f['name']}_paper/README.md) | {f['label']}, 6 agents | {f['epochs']} | "
-                     f"**{pct(success(fin['test-rapier']))}** | {pct(success(fin['validation-rapier']))} | "
-                     f"{pct(success(fin['test-mujoco']))} | {n['outcomes']['drop']} of {n['episodes']} | {best_cell} |")
+                     f"{ENGINE_NAMES[home]} | **{pct(success(fin[f'test-{home}']))}** | {pct(success(fin[f'validation-{home}']))} | "
+                     f"{ENGINE_NAMES[other]}: {pct(success(fin[f'test-{other}']))} | {n['outcomes']['drop']} of {n['episodes']} | {best_cell} |")
     return "\n".join(lines) + "\n"
 
 
@@ -350,25 +371,36 @@ def readme(run_records, out, commit):
         sys.exit(f"{run_records}: the final evaluations are not all there (run `scripts/long_runs.sh finish`)")
     env = dict(line.split("=", 1) for line in (run_records / "keeper.env").read_text().splitlines() if "=" in line)
     fin = f["finals"]
+    home = f["engine"]
     rows = []
-    for key, what in (("test-rapier", "fixed test set, rapier (trained on)"), ("validation-rapier", "validation episodes, rapier"),
-                      ("test-mujoco", "fixed test set, MuJoCo 3.17"), ("trials-rapier", "first test episodes, rapier (Table II)"),
-                      ("trials-mujoco", "first test episodes, MuJoCo (Table II)")):
-        e = fin[key]
-        o = e["outcomes"]
-        rows.append(f"| {what} | {e['episodes']} | **{pct(success(e))}** | {o['incomplete']} | {o['drop']} |")
+    for engine in (home,) + tuple(e for e in ENGINES if e != home):
+        mark = " (trained on)" if engine == home else ""
+        for kind, what in (("test", "fixed test set"), ("validation", "validation episodes"),
+                           ("trials", "first test episodes (Table II)")):
+            e = fin[f"{kind}-{engine}"]
+            o = e["outcomes"]
+            rows.append(f"| {what}, {ENGINE_NAMES[engine]}{mark} | {e['episodes']} | **{pct(success(e))}** | {o['incomplete']} | {o['drop']} |")
     best_line = (f"The snapshot best on the validation episodes is the final policy itself."
                  if f["best"] == int(env["EPOCHS"]) - 1 else
                  f"`best_on_validation.fmsr` is the snapshot after epoch {f['best']} (counted from 0), the best of the "
-                 f"snapshots on {f['best_validation_episodes']} validation episodes: test success {pct(success(f['best_test']))}. It was chosen on "
+                 f"snapshots on {f['best_validation_episodes']} validation episodes on {ENGINE_NAMES[home]}: test success "
+                 f"{pct(success(f['best_test']))}. It was chosen on "
                  "validation episodes, not on the test set, as the paper logs its best policy.")
+    setup = "scripts/setup_mujoco.sh   # libmujoco, once\n" if home == "mujoco" else ""
+    features = " --features mujoco" if home == "mujoco" else ""
+    restarts = [json.loads(line) for line in (run_records / "restarts.jsonl").read_text().splitlines()
+                if line.strip()] if (run_records / "restarts.jsonl").exists() else []
+    restart_line = ("" if not restarts else
+                    " Restarted from its rescue point at epoch" + ("s " if len(restarts) > 1 else " ")
+                    + ", ".join(str(r.get("epoch", "?")) for r in restarts)
+                    + " (the home was lost; replay refilled, `docs/results.md` says what each lost).")
     text = f"""# Egg, six agents, {f['label']}: the paper's budget
 
-The long run of issue 37 (`scripts/long_runs.sh`): `{env.get('CONFIG', '?')}`, seed 0, rapier, the paper's config
+The long run of issues 37 and 53 (`scripts/long_runs.sh`): `{env.get('CONFIG', '?')}`, seed 0, trained on {ENGINE_NAMES[home]}, the paper's config
 with one stepping thread and one learner thread, {f['epochs']} epochs ({f['env_steps']} env steps with the epochs'
 evaluation episodes), started
 {env.get('STARTED', '?')} with the release binary of commit `{env.get('COMMIT', '?')[:10]}`, on the project's
-development VM (2 cores, no GPU), one core per run. Learning curve and snapshots: `docs/results.md`,
+development VM (2 cores, no GPU), one core per run.{restart_line} Learning curve and snapshots: `docs/results.md`,
 section "The paper's budget".
 
 `policy.fmsr` is the policy after the last epoch (no selection), exported by the run's own binary and
@@ -376,11 +408,11 @@ evaluated with the build of `{commit}` (`--features mujoco`), its evaluations wr
 (`fmsr eval ... --record`). {best_line}
 
 ```sh
-cargo run --release -- eval pretrained/{out.name}      # repeats the test evaluation below
-cargo run --release -- render pretrained/{out.name}    # test episode 0 as a GIF, into render/ here
+{setup}cargo run --release{features} -- eval pretrained/{out.name}      # repeats the test evaluation below on {ENGINE_NAMES[home]}
+cargo run --release{features} -- render pretrained/{out.name}    # test episode 0 as a GIF, into render/ here
 ```
 
-Success is turned and held (within 0.4 rad at the last step, never dropped), with its 95 % Wilson interval:
+Success is turned and held (within {fin[f'test-{home}']['threshold']} rad at the last step, never dropped), with its 95 % Wilson interval:
 
 | Episodes | Count | Success | Incomplete | Drops |
 |---|---|---|---|---|

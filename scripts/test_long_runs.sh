@@ -6,13 +6,16 @@
 # `lost` must mark them only once their home is gone, `resume` must restore
 # them from their rescue points when it is,
 # `finish` must refuse while a run is unfinished and then write every final
-# evaluation, policy, README, report and the section with the paper's rows.
-# Nothing of the real home, docs/ or pretrained/ is touched.
+# evaluation (each on the engine its name says), policy, README, report and the
+# section with the paper's rows, and drop the rescue points of ended runs.
+# Both runs train on MuJoCo, as the paper-budget pair does: `fmsr eval` without
+# `--engine` takes the trained-on engine, and until 2026-11-29 `finish` relied
+# on it being rapier. Nothing of the real home, docs/ or pretrained/ is touched.
 #
 #   scripts/test_long_runs.sh      # about 1 minute with target/release built; needs a clean tree (start's rule)
 #
-# Not in CI: `start` and `finish` build release binaries (the second with
-# `--features mujoco`), which CI's debug build does not give. Run it when the
+# Not in CI: `start` and `finish` build release binaries with `--features
+# mujoco`, which CI's debug build does not give. Run it when the
 # keeper changes. It guards, among others, the race of 2026-11-26: the
 # launcher's liveness probe took the lock for an instant and a driver that
 # met it gave up, leaving its run stopped.
@@ -31,7 +34,7 @@ for m in dense_fmsr_is dense; do
   cat > "$scratch/egg_$m.toml" << EOF
 name = "egg_$m"
 method = "$m"
-engine = "rapier"
+engine = "mujoco"
 
 [env]
 object = "egg"
@@ -152,20 +155,33 @@ grep -q 'since its restore: restored .* from the rescue point of epoch 2 with th
 
 "$keeper" finish
 for run in egg_dense_fmsr_is egg_dense; do
-  for f in test-rapier validation-rapier test-mujoco trials-rapier trials-mujoco; do
+  for f in test-rapier validation-rapier test-mujoco validation-mujoco trials-rapier trials-mujoco; do
     [ -s "$FMSR_LONG_RUNS_RECORDS/$run/final/$f.json" ] || fail "$run: no final evaluation $f"
+    # The engine and set the file's name says, of a policy trained on MuJoCo.
+    python3 -c "import json,sys; e=json.load(open(sys.argv[1])); n=sys.argv[2]
+want=({'trials': 'test'}.get(n.split('-')[0], n.split('-')[0]), n.split('-')[1], 'mujoco')
+assert (e['set'], e['engine'], e['trained_on']) == want, (n, e['set'], e['engine'], e['trained_on'])" \
+      "$FMSR_LONG_RUNS_RECORDS/$run/final/$f.json" "$f" || fail "$run: final/$f.json is not what its name says"
   done
   python3 -c "import json,sys; e=json.load(open(sys.argv[1])); assert e['episodes'] == 20, e['episodes']" \
     "$FMSR_LONG_RUNS_RECORDS/$run/final/trials-rapier.json" || fail "$run: the trials are not 20 episodes"
-  for f in policy.fmsr best_on_validation.fmsr README.md render/episode-0-rapier.gif; do
+  for f in policy.fmsr best_on_validation.fmsr README.md render/episode-0-mujoco.gif; do
     [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/$f" ] || fail "$run: no pretrained/${run}_paper/$f"
   done
+  # An ended run needs no rescue point; the tree would not hold it beside the final policies.
+  for f in rescue best_so_far.fmsr best_so_far.env; do
+    [ ! -e "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/$f" ] || fail "$run: finish left pretrained/${run}_paper/$f"
+  done
+  grep -q "| fixed test set, MuJoCo (trained on) |" "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/README.md" || fail "$run: the README does not lead with MuJoCo"
   # The exported policy carries its evaluations: eval repeats the test one.
   "$repo/target/release/fmsr" eval "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper" > "$scratch/eval"
   grep -q "the same results as the evaluation the file carries" "$scratch/eval" || fail "$run: the policy does not carry its test evaluation"
 done
 [ -s "$FMSR_LONG_RUNS_RECORDS/report/summary.md" ] || fail "no report"
-grep -q "The paper's orderings, Dense+FMSR+IS against Dense, rapier" "$scratch/results.md" || fail "no comparison with the paper"
+for engine in MuJoCo rapier; do
+  grep -q "The paper's orderings, Dense+FMSR+IS against Dense, $engine" "$scratch/results.md" || fail "no comparison with the paper on $engine"
+done
+grep -q "on the fixed test set on MuJoCo (the engine they trained on)" "$scratch/results.md" || fail "the summary line is not on the trained-on engine"
 grep -q "At the paper's budget (2 epochs), egg, seed 0, ended" "$scratch/results.md" || fail "no summary line"
-grep -q "| \[\`egg_dense_paper\`\](egg_dense_paper/README.md) | Dense, 6 agents |" "$scratch/pretrained/README.md" || fail "no row in pretrained/README.md"
+grep -q "| \[\`egg_dense_paper\`\](egg_dense_paper/README.md) | Dense, 6 agents | [0-9]* | MuJoCo |" "$scratch/pretrained/README.md" || fail "no row in pretrained/README.md"
 echo "test_long_runs: passed"

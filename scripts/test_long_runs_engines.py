@@ -3,8 +3,12 @@
 
 Guards bd28d19's fix: the pair trains on MuJoCo and its snapshots are
 evaluated there, but the in-progress orderings were labelled "rapier" and
-`finish` put the best snapshot's test evaluation in the rapier rows. Uses
-the pair's own MuJoCo snapshot evaluations from docs/results/paper_budget.
+`finish` put the best snapshot's test evaluation in the rapier rows. And the
+fix of 2026-11-29: `finish`'s summary line, policy index and READMEs took
+the rapier evaluations as the trained-on ones, and read env_steps from the
+fifth column of metrics.csv (train_success_rate since 2026-11-27). Uses the
+pair's own MuJoCo snapshot evaluations and metrics from
+docs/results/paper_budget, as final evaluations named by their engine.
 Runs in a second (CI's `long-runs-engines` stage); no build needed.
 """
 
@@ -42,7 +46,7 @@ assert long_runs_final.best_on({"best_test": None}, "rapier") is None
 # An evaluation written before the field existed was on rapier.
 assert long_runs_final.engine_of({}) == "rapier"
 assert long_runs_final.engine_name(e) == "MuJoCo"
-assert long_runs_final.trained_on([{"finals": {"test-rapier": {"trained_on": "mujoco"}}}]) == "MuJoCo"
+assert long_runs_final.trained_on([{"engine": "mujoco"}]) == "MuJoCo"
 
 # The in-progress orderings name MuJoCo for MuJoCo evaluations.
 with tempfile.TemporaryDirectory() as tmp:
@@ -56,5 +60,45 @@ with tempfile.TemporaryDirectory() as tmp:
     heading = next(line for line in lines if line.startswith("The paper's orderings"))
     assert "fixed test set (MuJoCo," in heading, heading
     assert "rapier" not in heading.split("(", 1)[1].split(";", 1)[0], heading
+
+# `finish`'s Python on a MuJoCo-trained pair: final evaluations named by set
+# and engine (the snapshot's, relabelled on rapier), as `finish` writes them.
+with tempfile.TemporaryDirectory() as tmp:
+    finals = []
+    for run in ("egg_dense_fmsr_is", "egg_dense"):
+        src = mujoco[run].parent.parent
+        d = Path(tmp, run)
+        shutil.copytree(src / "snapshots", d / "snapshots")
+        for f in ("config.toml", "metrics.csv", "keeper.env"):
+            shutil.copyfile(src / f, d / f)
+        (d / "final").mkdir()
+        for name in long_runs_final.FINALS:
+            kind, engine = name.split("-")
+            e = dict(long_runs_final.read_json(d / "snapshots" / SNAP.replace("test", "validation" if kind == "validation" else "test")))
+            e["engine"] = engine
+            (d / "final" / f"{name}.json").write_text(long_runs_final.json.dumps(e))
+        f = long_runs_final.load_final(d)
+        assert f["engine"] == "mujoco", f["engine"]
+        last = (src / "metrics.csv").read_text().splitlines()
+        assert f["epochs"] == len(last) - 1, f["epochs"]
+        col = last[0].split(",").index("env_steps")
+        assert f["env_steps"] == int(last[-1].split(",")[col]), (f["env_steps"], last[-1])
+        finals.append(f)
+        out = Path(tmp, run + "_paper")
+        out.mkdir()
+        long_runs_final.readme(d, out, "abc")
+        text = (out / "README.md").read_text()
+        table = text.split("|---|---|---|---|---|", 1)[1].strip().splitlines()
+        assert table[0].startswith("| fixed test set, MuJoCo (trained on) |"), table[0]
+        assert "trained on MuJoCo" in text and "--features mujoco -- eval" in text
+    # Every final evaluation, with MuJoCo's rows first.
+    assert set(long_runs_final.FINALS) >= {"validation-mujoco", "validation-rapier"}
+    lines = long_runs_final.section_lines(finals, "R", "P")
+    heads = [line for line in lines if line.startswith("**Against the paper's own values")]
+    assert [h.split("**")[1].split(", ")[-1] for h in heads] == ["MuJoCo", "rapier"], heads
+    bullet = long_runs_final.summary_bullet(finals, "x")
+    assert "on the fixed test set on MuJoCo (the engine they trained on)" in bullet, bullet
+    index = long_runs_final.pretrained_index(finals)
+    assert "| Dense, 6 agents | " + str(finals[1]["epochs"]) + " | MuJoCo |" in index, index
 
 print("test_long_runs_engines: passed")
