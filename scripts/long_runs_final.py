@@ -151,6 +151,17 @@ def best(run_records):
     return -max(scored)[1] if scored else None
 
 
+def config_value(config, key, default=None):
+    """A top-level string key of a run's config.toml text (before its first table), else `default`."""
+    for line in config.splitlines():
+        if line.lstrip().startswith("["):
+            break
+        k, eq, v = line.partition("=")
+        if eq and k.strip() == key:
+            return v.split("#", 1)[0].strip().strip('"')
+    return default
+
+
 def load_final(run_records):
     """A run's final evaluations, or None until `finish` wrote them all."""
     d = run_records / "final"
@@ -158,7 +169,7 @@ def load_final(run_records):
     if any(v is None for v in finals.values()):
         return None
     config = (run_records / "config.toml").read_text()
-    method = next(line.split("=", 1)[1].strip().strip('"') for line in config.splitlines() if line.startswith("method"))
+    method = config_value(config, "method")
     k = best(run_records)
     snap = read_json(run_records / "snapshots" / f"epoch-{k:03d}.test.json") if k is not None else None
     val = read_json(run_records / "snapshots" / f"epoch-{k:03d}.validation.json") if k is not None else None
@@ -392,7 +403,7 @@ def readme(run_records, out, commit):
                 if line.strip()] if (run_records / "restarts.jsonl").exists() else []
     restart_line = ("" if not restarts else
                     " Restarted from its rescue point at epoch" + ("s " if len(restarts) > 1 else " ")
-                    + ", ".join(str(r.get("epoch", "?")) for r in restarts)
+                    + ", ".join(str(r.get("restart", {}).get("epoch", "?")) for r in restarts)
                     + " (the home was lost; replay refilled, `docs/results.md` says what each lost).")
     text = f"""# Egg, six agents, {f['label']}: the paper's budget
 

@@ -299,7 +299,10 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
     lines = [f"## {HEADING}", ""]
     gone = any(r["lost"] for r in runs)
     configs = [r["env"].get("CONFIG", "?") for r in runs]
-    engines = sorted({"MuJoCo" if "mujoco" in c else "rapier" for c in configs})
+    # From each run's config.toml, not its file name: rapier when it names none (the default).
+    engines = sorted({long_runs_final.ENGINE_NAMES.get(e, e) for e in
+                      (long_runs_final.config_value((r["dir"] / "config.toml").read_text(), "engine", "rapier")
+                       for r in runs)})
     lines.append(
         "Issues 37 and 53: both runs at the paper's config ("
         + ", ".join(f"`{c}`" for c in configs)

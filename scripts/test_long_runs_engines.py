@@ -47,6 +47,11 @@ assert long_runs_final.best_on({"best_test": None}, "rapier") is None
 assert long_runs_final.engine_of({}) == "rapier"
 assert long_runs_final.engine_name(e) == "MuJoCo"
 assert long_runs_final.trained_on([{"engine": "mujoco"}]) == "MuJoCo"
+# The engine a config names, top level only; rapier (the default) when it names none.
+cfg = 'engine = "mujoco"  # a comment\nmethod = "dense"\n\n[env]\nengine = "rapier"\n'
+assert long_runs_final.config_value(cfg, "engine") == "mujoco"
+assert long_runs_final.config_value(cfg, "method") == "dense"
+assert long_runs_final.config_value('method = "dense"\n[env]\nengine = "mujoco"\n', "engine", "rapier") == "rapier"
 
 # The in-progress orderings name MuJoCo for MuJoCo evaluations.
 with tempfile.TemporaryDirectory() as tmp:
