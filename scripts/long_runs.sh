@@ -7,7 +7,7 @@
 #   scripts/long_runs.sh resume            restart every unfinished run, from its rescue point where the home lost it (first thing every session)
 #   scripts/long_runs.sh status            epochs, env steps, success, s/epoch, sessions left, alive, next snapshot
 #   scripts/long_runs.sh record            evaluate new snapshots, copy small files into docs/
-#   scripts/long_runs.sh finish            once every run has ended: issue 37's item 4 (below)
+#   scripts/long_runs.sh finish            once every run has ended: issue 37's item 4 (below); ~30 min for the pair, run it with nohup
 #   scripts/long_runs.sh lost              the home is gone: mark the recorded runs lost, rewrite the section
 #
 # The home is `$FMSR_LONG_RUNS`, else `$HOME/.local/share/fmsr/long-runs`:

@@ -12,7 +12,7 @@
 # `--engine` takes the trained-on engine, and until 2026-11-29 `finish` relied
 # on it being rapier. Nothing of the real home, docs/ or pretrained/ is touched.
 #
-#   scripts/test_long_runs.sh      # about 1 minute with target/release built; needs a clean tree (start's rule)
+#   scripts/test_long_runs.sh      # about 4 minutes with target/release built; needs a clean tree (start's rule)
 #
 # Not in CI: `start` and `finish` build release binaries with `--features
 # mujoco`, which CI's debug build does not give. Run it when the
