@@ -298,6 +298,10 @@ home_binary() {
 # there), not in its records.
 rescue_dir() { echo "$pretrained/$(basename "$1")_paper/rescue"; }
 
+# Whether `finish` evaluated recorded run $1 (its records' directory): the run
+# has ended, and neither needs nor gets a rescue point or a best policy so far.
+finished_out() { [ -f "$1/final/test-rapier.json" ]; }
+
 # Restores recorded run $1 (its records' directory) into the home from its
 # rescue point, with this work tree's build; the driver restarts from it.
 restore_from_rescue() {
@@ -337,7 +341,7 @@ resume() {
   local out restored=0
   for out in $(recorded); do
     [ ! -f "$home/$(basename "$out")/keeper.env" ] && [ -f "$(rescue_dir "$out")/rescue.fmsr" ] || continue
-    [ ! -f "$out/final/test-rapier.json" ] || continue
+    finished_out "$out" && continue
     restore_from_rescue "$out"
     rm -f "$out/lost.env"
     restored=1
@@ -449,6 +453,8 @@ rescue_and_best() {
   for dir in $(runs); do
     name=$(basename "$dir")
     out=$records/$name
+    # After `finish` the policies in pretrained/ are the final ones (it removed these).
+    finished_out "$out" && continue
     epoch=$(epochs_done "$dir")
     if [ "$epoch" -gt 0 ] && [ "$(sed -n 's/^EPOCH=//p' "$(rescue_dir "$out")/rescue.env" 2> /dev/null)" != "$epoch" ]; then
       mkdir -p "$(rescue_dir "$out")"

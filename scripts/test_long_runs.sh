@@ -180,6 +180,13 @@ done
 grep -q "Restarted from its rescue point at epoch 2 " "$FMSR_LONG_RUNS_PRETRAINED/egg_dense_fmsr_is_paper/README.md" || fail "the README does not say where the run was restored"
 grep -q "seed 0, trained on MuJoCo;" "$scratch/results.md" || fail "the section does not say the runs trained on MuJoCo"
 [ -s "$FMSR_LONG_RUNS_RECORDS/report/summary.md" ] || fail "no report"
+# A `record` after `finish` (the next session's last step) brings back no rescue point.
+"$keeper" record
+for run in egg_dense_fmsr_is egg_dense; do
+  for f in rescue best_so_far.fmsr; do
+    [ ! -e "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/$f" ] || fail "$run: record after finish wrote pretrained/${run}_paper/$f again"
+  done
+done
 for engine in MuJoCo rapier; do
   grep -q "The paper's orderings, Dense+FMSR+IS against Dense, $engine" "$scratch/results.md" || fail "no comparison with the paper on $engine"
 done
