@@ -496,8 +496,18 @@ work_tree_binary() {
   fmsr=$repo/target/release/fmsr
 }
 
+# One writer of the records, rescue points and pretrained/ at a time: a
+# `finish` left running under nohup and the session's last `record` would
+# evaluate the same snapshot into the same temporary files. The lock is the
+# home's (fd 8, held until the script exits); a second one is refused.
+records_writer() {
+  exec 8> "$home/records.lock"
+  flock -n 8 || die "another \`$0 record\` or \`finish\` is writing the records (it holds $home/records.lock); wait for it"
+}
+
 record() {
   [ -d "$home" ] || die "no long-run home at $home (if it was lost, \`$0 lost\` records that and rewrites the section)"
+  records_writer
   work_tree_binary
   evaluate_snapshots
   rescue_and_best
@@ -579,6 +589,7 @@ finish_run() {
 
 finish() {
   [ -d "$home" ] || die "no long-run home at $home"
+  records_writer
   cd "$repo"
   local dir waiting=() policies=()
   for dir in $(runs); do

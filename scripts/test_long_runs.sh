@@ -153,6 +153,12 @@ grep -q 'since its restore: restored .* from the rescue point of epoch 2 with th
 ! grep -q 'kept for the whole run' "$scratch/results.md" || fail "the section says a restored run kept its binary"
 [ -f "$FMSR_LONG_RUNS_RECORDS/egg_dense_fmsr_is/restarts.jsonl" ] || fail "record did not copy the restarts"
 
+# One writer of the records: a record or finish while another holds the lock is refused.
+flock "$FMSR_LONG_RUNS/records.lock" sleep 3 &
+sleep 0.5
+"$keeper" record 2> "$scratch/refused" && fail "record ran while another writer held the records"
+grep -q "is writing the records" "$scratch/refused" || fail "record refused for another reason: $(cat "$scratch/refused")"
+wait
 "$keeper" finish
 for run in egg_dense_fmsr_is egg_dense; do
   for f in test-rapier validation-rapier test-mujoco validation-mujoco trials-rapier trials-mujoco; do
