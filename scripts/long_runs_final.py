@@ -240,9 +240,26 @@ def engine_of(e, key="engine"):
     return e.get(key, "rapier")
 
 
+def shown(engine):
+    """An engine's key (`rapier`, `mujoco`) as the results write it."""
+    return ENGINE_NAMES.get(engine, engine)
+
+
 def engine_name(e, key="engine"):
     """engine_of, as the results write it."""
-    return ENGINE_NAMES.get(engine_of(e, key), engine_of(e, key))
+    return shown(engine_of(e, key))
+
+
+def trained_first(home):
+    """Both engines, `home` (the one a run trained on) first: its rows lead."""
+    return (home,) + tuple(e for e in ENGINES if e != home)
+
+
+def read_restarts(path):
+    """The restarts of a run from its rescue points (restarts.jsonl): one JSON object a line, none without the file."""
+    if not path.exists():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
 
 
 def best_on(r, engine):
@@ -288,7 +305,7 @@ def table2_rows(runs, engine):
         e = r["finals"][f"trials-{engine}"]
         f = e["failures"]
         share = "n/a" if not f["failures"] else f"{100 * f['drop'] / f['failures']:.1f} %"
-        rows.append(f"| {r['label']} (ours, {ENGINE_NAMES[engine]}) | {e['episodes']} | {f['failures']} | {f['incomplete']} | {f['drop']} | {share} |")
+        rows.append(f"| {r['label']} (ours, {shown(engine)}) | {e['episodes']} | {f['failures']} | {f['incomplete']} | {f['drop']} | {share} |")
     for label, (fail, inc, drop) in PAPER_TABLE2[runs[0]["task"]].items():
         rows.append(f"| {label} (the paper) | 500 | {fail} | {inc} | {drop} | {100 * drop / fail:.1f} % |")
     return rows
@@ -296,13 +313,7 @@ def table2_rows(runs, engine):
 
 def trained_on(finals):
     """The engines the runs trained on, as the results write them."""
-    return " and ".join(sorted({ENGINE_NAMES.get(f["engine"], f["engine"]) for f in finals}))
-
-
-def engines_trained_first(finals):
-    """Both engines, the one the (first) run trained on first: its rows lead."""
-    home = finals[0]["engine"]
-    return (home,) + tuple(e for e in ENGINES if e != home)
+    return " and ".join(sorted({shown(f["engine"]) for f in finals}))
 
 
 def section_lines(finals, records_rel, pretrained_rel):
@@ -315,20 +326,20 @@ def section_lines(finals, records_rel, pretrained_rel):
              f"and on MuJoCo (trained on {trained_on(finals)}); evaluations in [`{records_rel}/<run>/final/`]({records_rel}/), "
              f"`fmsr report` over both in [`{records_rel}/report/summary.md`]({records_rel}/report/summary.md), "
              f"the policies in [`{pretrained_rel}/`]({pretrained_rel}/).", ""]
-    for engine in engines_trained_first(finals):
-        shown = ENGINE_NAMES[engine]
-        lines += [f"**Against the paper's own values, {shown}** (success and drops only: the other measures are on "
+    for engine in trained_first(finals[0]["engine"]):
+        name = shown(engine)
+        lines += [f"**Against the paper's own values, {name}** (success and drops only: the other measures are on "
                   "the paper's scale, not ours):", "",
                   "| Run | What | The paper | Ours | Ours minus the paper | |", "|---|---|---|---|---|---|"]
         lines += absolute_rows(finals, engine)
         lines.append("")
         a, b = by_label.get("Dense+FMSR+IS"), by_label.get("Dense")
         if a and b:
-            lines += [f"**The paper's orderings, Dense+FMSR+IS against Dense, {shown}** (the paper's Table I: 100 trials; "
+            lines += [f"**The paper's orderings, Dense+FMSR+IS against Dense, {name}** (the paper's Table I: 100 trials; "
                       "our values mean ± std over the episodes):", ""] + ORDERING_HEADER
             lines += table1_rows(a, b, engine)
             lines.append("")
-        lines += [f"**Failure types (Table II), {shown}:**", "",
+        lines += [f"**Failure types (Table II), {name}:**", "",
                   "| Policy | Trials | Failures | Incomplete | Drops | Drops of the failures |", "|---|---|---|---|---|---|"]
         lines += table2_rows(finals, engine)
         lines.append("")
@@ -366,13 +377,12 @@ def pretrained_index(finals):
              "Drops in the Table II trials | Best snapshot on validation: test success |", "|---|---|---|---|---|---|---|---|---|"]
     for f in finals:
         fin = f["finals"]
-        home = f["engine"]
-        other = next(e for e in ENGINES if e != home)
+        home, other = trained_first(f["engine"])
         n = fin[f"trials-{home}"]
         best_cell = f"epoch {f['best']}: {pct(success(f['best_test']))}" if f["best_test"] else "n/a"
         lines.append(f"| [`{f['name']}_paper`]({f['name']}_paper/README.md) | {f['label']}, 6 agents | {f['epochs']} | "
-                     f"{ENGINE_NAMES[home]} | **{pct(success(fin[f'test-{home}']))}** | {pct(success(fin[f'validation-{home}']))} | "
-                     f"{ENGINE_NAMES[other]}: {pct(success(fin[f'test-{other}']))} | {n['outcomes']['drop']} of {n['episodes']} | {best_cell} |")
+                     f"{shown(home)} | **{pct(success(fin[f'test-{home}']))}** | {pct(success(fin[f'validation-{home}']))} | "
+                     f"{shown(other)}: {pct(success(fin[f'test-{other}']))} | {n['outcomes']['drop']} of {n['episodes']} | {best_cell} |")
     return "\n".join(lines) + "\n"
 
 
@@ -384,30 +394,29 @@ def readme(run_records, out, commit):
     fin = f["finals"]
     home = f["engine"]
     rows = []
-    for engine in (home,) + tuple(e for e in ENGINES if e != home):
+    for engine in trained_first(home):
         mark = " (trained on)" if engine == home else ""
         for kind, what in (("test", "fixed test set"), ("validation", "validation episodes"),
                            ("trials", "first test episodes (Table II)")):
             e = fin[f"{kind}-{engine}"]
             o = e["outcomes"]
-            rows.append(f"| {what}, {ENGINE_NAMES[engine]}{mark} | {e['episodes']} | **{pct(success(e))}** | {o['incomplete']} | {o['drop']} |")
+            rows.append(f"| {what}, {shown(engine)}{mark} | {e['episodes']} | **{pct(success(e))}** | {o['incomplete']} | {o['drop']} |")
     best_line = (f"The snapshot best on the validation episodes is the final policy itself."
                  if f["best"] == int(env["EPOCHS"]) - 1 else
                  f"`best_on_validation.fmsr` is the snapshot after epoch {f['best']} (counted from 0), the best of the "
-                 f"snapshots on {f['best_validation_episodes']} validation episodes on {ENGINE_NAMES[home]}: test success "
+                 f"snapshots on {f['best_validation_episodes']} validation episodes on {shown(home)}: test success "
                  f"{pct(success(f['best_test']))}. It was chosen on "
                  "validation episodes, not on the test set, as the paper logs its best policy.")
     setup = "scripts/setup_mujoco.sh   # libmujoco, once\n" if home == "mujoco" else ""
     features = " --features mujoco" if home == "mujoco" else ""
-    restarts = [json.loads(line) for line in (run_records / "restarts.jsonl").read_text().splitlines()
-                if line.strip()] if (run_records / "restarts.jsonl").exists() else []
+    restarts = read_restarts(run_records / "restarts.jsonl")
     restart_line = ("" if not restarts else
                     " Restarted from its rescue point at epoch" + ("s " if len(restarts) > 1 else " ")
                     + ", ".join(str(r.get("restart", {}).get("epoch", "?")) for r in restarts)
                     + " (the home was lost; replay refilled, `docs/results.md` says what each lost).")
     text = f"""# Egg, six agents, {f['label']}: the paper's budget
 
-The long run of issues 37 and 53 (`scripts/long_runs.sh`): `{env.get('CONFIG', '?')}`, seed 0, trained on {ENGINE_NAMES[home]}, the paper's config
+The long run of issues 37 and 53 (`scripts/long_runs.sh`): `{env.get('CONFIG', '?')}`, seed 0, trained on {shown(home)}, the paper's config
 with one stepping thread and one learner thread, {f['epochs']} epochs ({f['env_steps']} env steps with the epochs'
 evaluation episodes), started
 {env.get('STARTED', '?')} with the release binary of commit `{env.get('COMMIT', '?')[:10]}`, on the project's
@@ -419,7 +428,7 @@ evaluated with the build of `{commit}` (`--features mujoco`), its evaluations wr
 (`fmsr eval ... --record`). {best_line}
 
 ```sh
-{setup}cargo run --release{features} -- eval pretrained/{out.name}      # repeats the test evaluation below on {ENGINE_NAMES[home]}
+{setup}cargo run --release{features} -- eval pretrained/{out.name}      # repeats the test evaluation below on {shown(home)}
 cargo run --release{features} -- render pretrained/{out.name}    # test episode 0 as a GIF, into render/ here
 ```
 

@@ -173,17 +173,10 @@ def load_run(records, home, name):
         "snapshots": snaps,
         "alive": alive(home, name),
         # Restarts from the run's rescue point (`fmsr train --rescue`), as restarts.jsonl records them.
-        "restarts": read_restarts(d / "restarts.jsonl"),
+        "restarts": long_runs_final.read_restarts(d / "restarts.jsonl"),
         # When the keeper found the home gone (`long_runs.sh lost`), else None.
         "lost": keeper_env(d / "lost.env").get("FOUND") if (d / "lost.env").exists() else None,
     }
-
-
-def read_restarts(path):
-    """The restarts of a run from its rescue points: one JSON object a line, none without the file."""
-    if not path.exists():
-        return []
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
 
 
 def restarts_note(r):
@@ -300,7 +293,7 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
     gone = any(r["lost"] for r in runs)
     configs = [r["env"].get("CONFIG", "?") for r in runs]
     # From each run's config.toml, not its file name: rapier when it names none (the default).
-    engines = sorted({long_runs_final.ENGINE_NAMES.get(e, e) for e in
+    engines = sorted({long_runs_final.shown(e) for e in
                       (long_runs_final.config_value((r["dir"] / "config.toml").read_text(), "engine", "rapier")
                        for r in runs)})
     lines.append(
