@@ -503,6 +503,8 @@ work_tree_binary() {
 # evaluate the same snapshot into the same temporary files. The lock is the
 # home's (fd 8, held until the script exits); a second one is refused.
 records_writer() {
+  # Files set aside for a GPU call (scripts/gpu/aside.sh) would be put back over what this writes.
+  [ ! -f "$repo/.aside/MANIFEST" ] || die "tracked files are set aside for a GPU call: \`scripts/gpu/aside.sh back\` first"
   exec 8> "$home/records.lock"
   flock -n 8 || die "another \`$0 record\` or \`finish\` is writing the records (it holds $home/records.lock); wait for it"
 }

@@ -110,8 +110,14 @@ if [[ $features == *vulkan* || $features == *wgpu* ]]; then
   apt-get "${o[@]}" update >/dev/null
   (cd "$out/debs" && apt-get "${o[@]}" download libvulkan1 libglvnd0 libglx0 libegl1 libgl1 libopengl0 libgles2 >/dev/null)
 fi
+# Files set aside for the calls (scripts/gpu/aside.sh) are not changes.
+set_aside=()
+if [ -f .aside/MANIFEST ]; then
+  while IFS= read -r -d '' entry; do set_aside+=(":(exclude)${entry#*$'\t'}"); done < .aside/MANIFEST
+fi
 {
-  echo "commit $(git rev-parse HEAD)$(git diff --quiet HEAD -- . ':!docs' || echo ' (with uncommitted changes)')"
+  echo "commit $(git rev-parse HEAD)$(git diff --quiet HEAD -- . ':!docs' "${set_aside[@]}" || echo ' (with uncommitted changes)')"
+  [ ${#set_aside[@]} -eq 0 ] || echo "set aside ${#set_aside[@]} tracked files (scripts/gpu/aside.sh)"
   echo "features ${features:-none}"
   echo "packed $(date -u +%Y-%m-%dT%H:%M:%SZ)"
 } > "$out/MANIFEST"
@@ -155,4 +161,6 @@ for dir in "$out" "$out"-[0-9]*; do
 done
 if [ -d "$out-2" ]; then
   echo "the binaries travel in parts: carry $out in one call, then each $out-N in a call of its own on the same machine"
+  # Every call costs device time: fewer parts if the large tracked files stay here.
+  [ -f .aside/MANIFEST ] || echo "scripts/gpu/aside.sh away, then pack again, leaves the rescue points and policies here (fewer parts)"
 fi
