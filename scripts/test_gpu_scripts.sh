@@ -24,6 +24,7 @@ pack=.gpu-test-$$
 kept=$scratch/environment.kept
 cleanup() {
   for p in runs/gpu/*.pid; do [ -f "$p" ] && kill -TERM "$(cat "$p")" 2> /dev/null || true; done
+  [ -f .aside/MANIFEST ] && scripts/gpu/aside.sh back > /dev/null
   rm -rf "$pack" runs/gpu target/environment
   [ -d "$kept" ] && mv "$kept" target/environment
   rm -rf "$scratch"
@@ -39,8 +40,17 @@ trap cleanup EXIT
 mkdir -p "$scratch/cache/environment"
 echo "from an earlier lease" > "$scratch/cache/environment/fmsr-test-marker"
 tar czf "$scratch/cubecl_cache.tar.gz" -C "$scratch/cache" environment
+# Packed as the README does it, with the rescue points and policies set aside
+# (scripts/gpu/aside.sh): the manifest says so and does not call them changes.
+clean=0
+git diff --quiet HEAD -- . ':!docs' && clean=1
+[ -e .aside ] && fail ".aside exists: \`scripts/gpu/aside.sh back\` first"
+scripts/gpu/aside.sh away > "$scratch/aside.log" || fail "aside.sh away: $(cat "$scratch/aside.log")"
 FMSR_CUBECL_CACHE=$scratch/cubecl_cache.tar.gz scripts/gpu/pack.sh --cpu --bench ddpg_update --out "$pack" \
   > "$scratch/pack.log" 2>&1 || fail "pack.sh: $(tail -n 5 "$scratch/pack.log")"
+scripts/gpu/aside.sh back > "$scratch/aside.log" || fail "aside.sh back: $(cat "$scratch/aside.log")"
+grep -q "^set aside [0-9]* tracked files" "$pack/MANIFEST" || fail "the manifest does not say what was set aside: $(cat "$pack/MANIFEST")"
+[ "$clean" = 0 ] || ! grep -q "with uncommitted changes" "$pack/MANIFEST" || fail "the files set aside counted as changes"
 [ -f "$pack/cubecl_cache.tar.gz" ] || fail "the pack has no cubecl_cache.tar.gz"
 [ -f "$pack/bin.tar.xz" ] || fail "the pack's binaries are not in one archive (in parts?): $(cat "$pack/MANIFEST")"
 grep -q "^features none" "$pack/MANIFEST" || fail "the manifest: $(cat "$pack/MANIFEST")"
