@@ -52,10 +52,9 @@
 # (`fmsr eval --record`), as pretrained/<run>_paper/policy.fmsr, with the
 # snapshot best on the validation episodes beside it (best_on_validation.fmsr,
 # unless it is the final one), test episode 0 rendered on the engine the run
-# trained on and a README; the rescue point (docs/results/paper_budget/<run>/rescue/)
-# and pretrained/<run>_paper/best_so_far.fmsr, which an ended run no longer
-# needs, are removed (git's history keeps them; the tree would not hold them
-# beside the final policies); then
+# trained on and a README; the rescue point and best_so_far.fmsr, which an
+# ended run no longer needs, are removed from pretrained/<run>_paper/ (git's
+# history keeps them; the tree would not hold them beside the final policies); then
 # `fmsr report` over those policies into docs/results/paper_budget/report/, and
 # the section again, now with the comparison with the paper
 # (scripts/long_runs_final.py). Each step skips what an earlier `finish` wrote,
@@ -66,8 +65,8 @@
 # Rescue points (issue 53). `record` also writes each run's rescue point,
 # `fmsr rescue RUN --keep $FMSR_LONG_RUNS_KEEP` (default `online`: the online
 # networks, normalisers, RNG, counters and occupancy, no replay, about 8 MB for
-# the paper's networks), into the run's records, docs/results/paper_budget/<run>/rescue/
-# (rescue.fmsr, rescue.env: EPOCH, KEEP, WRITTEN; rescue.log), and
+# the paper's networks), into pretrained/<run>_paper/rescue/ (rescue.fmsr,
+# rescue.env: EPOCH, KEEP, WRITTEN; restarts.jsonl stays in the records), and
 # copies the snapshot best on the validation episodes so far to
 # pretrained/<run>_paper/best_so_far.fmsr (best_so_far.env: EPOCH), so a
 # policy and the state to go on from are in the repository whatever happens
@@ -295,8 +294,9 @@ home_binary() {
 }
 
 # Where the rescue point of the run recorded in $1 (its records' directory)
-# lies: in its records, as issue 53 asks (docs/design.md, "Rescue points").
-rescue_dir() { echo "$1/rescue"; }
+# lies: beside its policies in pretrained/ (tracked files over 2 MiB belong
+# there), not in its records.
+rescue_dir() { echo "$pretrained/$(basename "$1")_paper/rescue"; }
 
 # Whether `finish` evaluated recorded run $1 (its records' directory): the run
 # has ended, and neither needs nor gets a rescue point or a best policy so far.
@@ -410,8 +410,6 @@ archive_earlier_record() {
   [ -f "$out/keeper.env" ] && [ "$(started "$out/keeper.env")" != "$(started "$dir/keeper.env")" ] || return 0
   was=$(sed -n 's/^STARTED=//p' "$out/keeper.env" | tr -d ':')
   mkdir -p "${records}_lost"
-  # Not its rescue point: nothing goes on from it, and git's history keeps it.
-  rm -rf "$(rescue_dir "$out")"
   mv "$out" "${records}_lost/$(basename "$out")-$was"
   echo "$(basename "$out"): the record of the run started $was is an earlier run's: moved to $(basename "$records")_lost/"
 }
@@ -588,7 +586,7 @@ finish_run() {
   python3 "$repo/scripts/long_runs_final.py" readme "$records/$name" "$pre" --commit "$(git rev-parse --short HEAD)"
   # The run has ended: its rescue point and best policy so far are superseded
   # by policy.fmsr and best_on_validation.fmsr (history keeps them).
-  rm -rf "$(rescue_dir "$records/$name")" "$pre/best_so_far.fmsr" "$pre/best_so_far.env"
+  rm -rf "$pre/rescue" "$pre/best_so_far.fmsr" "$pre/best_so_far.env"
 }
 
 finish() {

@@ -302,7 +302,7 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
         + ": 400 epochs of 25 cycles x 8 rollouts x 100 steps = 20k env steps, 25 x 25 gradient steps of 1024 "
         f"samples, seed 0, trained on {' and '.join(engines)}; the goal distance each config.toml names), one core "
         "each (`trainer.threads = 1`, `networks.threads = 1`, which do not change the results), kept across sessions "
-        "by `scripts/long_runs.sh` in `$HOME/.local/share/fmsr/long-runs`, with rescue points in the records (`<run>/rescue/`)."
+        "by `scripts/long_runs.sh` in `$HOME/.local/share/fmsr/long-runs`, with rescue points in `pretrained/`."
         + ("" if gone else " Until both reach 400 epochs this section is progress, not a result.")
     )
     lines.append("")

@@ -108,7 +108,7 @@ mv "$FMSR_LONG_RUNS/egg_dense" "$scratch/egg_dense.kept"
 mv "$scratch/egg_dense.kept" "$FMSR_LONG_RUNS/egg_dense"
 # Records without rescue points (runs recorded before 2026-11-27): `resume`
 # cannot restore them and points at `lost`. (`record` writes them again below.)
-for run in egg_dense_fmsr_is egg_dense; do rm -r "$FMSR_LONG_RUNS_RECORDS/$run/rescue"; done
+for run in egg_dense_fmsr_is egg_dense; do rm -r "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/rescue"; done
 mv "$FMSR_LONG_RUNS" "$scratch/home.kept"
 "$keeper" resume > "$scratch/resumed"
 grep -q "not in the home: egg_dense egg_dense_fmsr_is; if the home was lost" "$scratch/resumed" || fail "resume did not point at lost: $(cat "$scratch/resumed")"
@@ -129,10 +129,8 @@ grep -q "Lost before" "$scratch/results.md" && fail "the section still says the 
 # their rescue points (this tree's build), the drivers restart from them, and
 # the restart is in the run's restarts.jsonl, the records and the section.
 for run in egg_dense_fmsr_is egg_dense; do
-  # In the run's records, where issue 53 asks for it (not pretrained/, where it was until 2026-11-29).
-  [ -s "$FMSR_LONG_RUNS_RECORDS/$run/rescue/rescue.fmsr" ] || fail "$run: record wrote no rescue point"
-  grep -q '^KEEP=online$' "$FMSR_LONG_RUNS_RECORDS/$run/rescue/rescue.env" || fail "$run: no rescue.env"
-  [ ! -e "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/rescue" ] || fail "$run: a rescue point in pretrained/"
+  [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/rescue/rescue.fmsr" ] || fail "$run: record wrote no rescue point"
+  grep -q '^KEEP=online$' "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/rescue/rescue.env" || fail "$run: no rescue.env"
   [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/best_so_far.fmsr" ] || fail "$run: record kept no best policy so far"
 done
 mv "$FMSR_LONG_RUNS" "$scratch/home.lost"
@@ -177,10 +175,9 @@ assert (e['set'], e['engine'], e['trained_on']) == want, (n, e['set'], e['engine
     [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/$f" ] || fail "$run: no pretrained/${run}_paper/$f"
   done
   # An ended run needs no rescue point; the tree would not hold it beside the final policies.
-  for f in best_so_far.fmsr best_so_far.env; do
+  for f in rescue best_so_far.fmsr best_so_far.env; do
     [ ! -e "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/$f" ] || fail "$run: finish left pretrained/${run}_paper/$f"
   done
-  [ ! -e "$FMSR_LONG_RUNS_RECORDS/$run/rescue" ] || fail "$run: finish left the rescue point in the records"
   grep -q "| fixed test set, MuJoCo (trained on) |" "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/README.md" || fail "$run: the README does not lead with MuJoCo"
   # The exported policy carries its evaluations: eval repeats the test one.
   "$repo/target/release/fmsr" eval "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper" > "$scratch/eval"
@@ -192,8 +189,9 @@ grep -q "seed 0, trained on MuJoCo;" "$scratch/results.md" || fail "the section 
 # A `record` after `finish` (the next session's last step) brings back no rescue point.
 "$keeper" record
 for run in egg_dense_fmsr_is egg_dense; do
-  [ ! -e "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/best_so_far.fmsr" ] || fail "$run: record after finish wrote best_so_far.fmsr again"
-  [ ! -e "$FMSR_LONG_RUNS_RECORDS/$run/rescue" ] || fail "$run: record after finish wrote a rescue point again"
+  for f in rescue best_so_far.fmsr; do
+    [ ! -e "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/$f" ] || fail "$run: record after finish wrote pretrained/${run}_paper/$f again"
+  done
 done
 for engine in MuJoCo rapier; do
   grep -q "The paper's orderings, Dense+FMSR+IS against Dense, $engine" "$scratch/results.md" || fail "no comparison with the paper on $engine"
