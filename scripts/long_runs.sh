@@ -172,7 +172,13 @@ drive() {
     snap=$dir/snapshots/epoch-$(printf %03d "$k").fmsr
     if [ ! -f "$snap" ]; then
       if [ "$trained" -ne "$target" ]; then
-        log "snapshot of epoch $k missed: the run is at $trained epochs"
+        # A run restored from its rescue point is past the snapshots it took
+        # before the home was lost: their evaluations are in the records.
+        if [ -f "$dir/rescue.used.fmsr" ]; then
+          log "snapshot of epoch $k not in this home: the run, restored from its rescue point, is at $trained epochs (snapshots recorded before the loss are in the records)"
+        else
+          log "snapshot of epoch $k missed: the run is at $trained epochs"
+        fi
         continue
       fi
       mkdir -p "$dir/snapshots"
