@@ -21,6 +21,7 @@ import os
 import platform
 import subprocess
 import tempfile
+import tomllib
 from pathlib import Path
 
 import long_runs_final
@@ -179,14 +180,42 @@ def load_run(records, home, name):
     }
 
 
+def buffer_capacity(config_path):
+    """The replay buffer's capacity in episodes (`replay.buffer_size` // `env.episode_len`) of a run's config.toml, else None."""
+    try:
+        config = tomllib.loads(config_path.read_text())
+        return int(config["replay"]["buffer_size"]) // int(config["env"]["episode_len"])
+    except (OSError, KeyError, TypeError, ValueError, ZeroDivisionError, tomllib.TOMLDecodeError):
+        return None
+
+
+def buffer_lost(restarts, capacity):
+    """The episodes the replay buffer held at each restart, all lost: `buffer_episodes` where the binary
+    counted it (since 2026-11-29), else those stored since the previous restart (its `lost_episodes`, the
+    replay floor) at most the buffer's `capacity`; None where neither says."""
+    out, floor = [], 0
+    for x in restarts:
+        re_ = x.get("restart", {})
+        held, lost = re_.get("buffer_episodes"), re_.get("lost_episodes")
+        if held is None and isinstance(lost, int) and capacity is not None:
+            held = min(lost - floor, capacity)
+        out.append(held)
+        floor = lost if isinstance(lost, int) else floor
+    return out
+
+
 def restarts_note(r):
     """A sentence per restart of run `r` from its rescue point: when, what it kept and lost, which binary."""
     out = []
-    for x in r.get("restarts", []):
+    restarts = r.get("restarts", [])
+    held = buffer_lost(restarts, buffer_capacity(r["dir"] / "config.toml") if "dir" in r else None)
+    for x, h in zip(restarts, held):
         re_, binary = x.get("restart", {}), x.get("binary", {})
+        lost = "the replay buffer" + (
+            "" if h is None else f" ({h} episodes of the {re_.get('lost_episodes', '?')} stored over the run)")
         out.append(
             f" Restarted at epoch {re_.get('epoch', '?')} from its rescue point (kept `{re_.get('keeps', '?')}`; "
-            f"lost {x.get('lost', 'the replay buffer')}; {re_.get('refill_episodes', '?')} episodes collected before "
+            f"lost {lost}; {re_.get('refill_episodes', '?')} episodes collected before "
             f"the next update) by the binary of commit `{str(binary.get('commit') or '?')[:10]}`."
         )
     return "".join(out)

@@ -143,11 +143,14 @@ for _ in $(seq 120); do
 done
 for run in egg_dense_fmsr_is egg_dense; do
   grep -q '"refill_episodes"' "$FMSR_LONG_RUNS/$run/run/restarts.jsonl" || fail "$run: no restart recorded ($(tail -n 5 "$FMSR_LONG_RUNS/$run/keeper.log"))"
+  grep -q '"buffer_episodes"' "$FMSR_LONG_RUNS/$run/run/restarts.jsonl" || fail "$run: the restart does not count the buffer it lost"
   [ -f "$FMSR_LONG_RUNS/$run/run/checkpoint.bin" ] || fail "$run: the restarted run has no checkpoint"
   grep -q '^BIN_NOTE=' "$FMSR_LONG_RUNS/$run/keeper.env" || fail "$run: keeper.env does not say which binary restored it"
 done
 "$keeper" record
 grep -q "Restarted at epoch 2 from its rescue point (kept \`online\`" "$scratch/results.md" || fail "the section does not show the restart"
+# What it lost is the buffer's content, not every episode of the run (fixed 2026-11-29).
+grep -q "lost the replay buffer ([0-9]* episodes of the [0-9]* stored over the run)" "$scratch/results.md" || fail "the section does not count the buffer a restart lost"
 # A restored run's binary is the restore's, said without the env file's quotes (fixed 2026-11-29).
 grep -q 'since its restore: restored .* from the rescue point of epoch 2 with the build of' "$scratch/results.md" || fail "the section does not name the restore's binary"
 ! grep -q 'kept for the whole run' "$scratch/results.md" || fail "the section says a restored run kept its binary"

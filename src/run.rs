@@ -151,7 +151,16 @@ fn record_restart(dir: &RunDir, restart: &Restart) -> Result<(), ExperimentError
     };
     let line = serde_json::json!({
         "restart": restart,
-        "lost": format!("the replay buffer ({} episodes); the rescue point kept `{}`", restart.lost_episodes, restart.keeps),
+        "lost": match restart.buffer_episodes {
+            Some(held) => format!(
+                "the replay buffer ({held} episodes of the {} stored over the run); the rescue point kept `{}`",
+                restart.lost_episodes, restart.keeps
+            ),
+            None => format!(
+                "the replay buffer (not counted; {} episodes stored over the run); the rescue point kept `{}`",
+                restart.lost_episodes, restart.keeps
+            ),
+        },
         "binary": Provenance::of_this_process(Path::new(".")),
     });
     text.push_str(&line.to_string());

@@ -58,6 +58,7 @@ fn a_full_rescue_point_restores_everything_but_the_replay_buffer() {
     let restart = restarted.restore_rescue(&point, 3).unwrap();
     assert_eq!((restart.epoch, restart.lost_episodes, restart.refill_episodes), (2, point.stored_episodes, 3));
     assert!(point.stored_episodes > 0);
+    assert_eq!(restart.buffer_episodes, Some(point.stored_episodes), "a buffer below its capacity held every episode");
     assert_eq!(restarted.history(), run.history());
     assert_eq!(restarted.restarts(), [restart]);
     assert_eq!(restarted.algorithm().save_policy().unwrap().len(), run.algorithm().save_policy().unwrap().len());
@@ -180,4 +181,55 @@ fn the_command_line_rescues_and_restarts_a_run() {
     // A run directory that still has its checkpoint is resumed, not rescued.
     let out = fmsr(&["train", "--rescue", point.to_str().unwrap(), "--out", lost_s, "--epochs", "3"]);
     assert!(!out.status.success() && text(&out).contains("--resume"), "{}", text(&out));
+}
+
+/// A TeamReach (20 steps) Dense+FMSR+IS MADDPG trainer whose replay buffer
+/// holds `episodes` episodes.
+fn small_buffer_trainer(episodes: usize) -> Trainer<TeamReach, AnyLearner> {
+    let method = Method::DenseFmsrIs;
+    let config = common::trainer_config(method, SEED, EPOCHS);
+    let env = common::team_reach(method);
+    let mut parts = common::parts(&env, method, SEED, config.gamma_for(env.spec().episode_len));
+    parts.replay.buffer_size = episodes * env.spec().episode_len;
+    let layout = parts.layout.clone();
+    let learner = fmsr::algorithms::build("maddpg", None, parts).unwrap();
+    let envs = (0..config.num_envs()).map(|_| common::team_reach(method)).collect();
+    Trainer::with_envs(config, envs, learner, layout).unwrap()
+}
+
+// Guards what a restart records as lost (2026-11-29: the paper-budget
+// pair's records said 24200 episodes of replay lost from a buffer of
+// 10000): the episodes the buffer held, those stored since the run's start
+// or its previous restart, at most its capacity; `lost_episodes` stays the
+// replay floor, every episode stored before the restart.
+#[test]
+fn a_restart_counts_the_buffer_it_lost_since_the_last_restart_and_within_its_capacity() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut run = small_buffer_trainer(15);
+    run.run_epoch().unwrap();
+    run.run_epoch().unwrap();
+    assert_eq!(run.algorithm().storage_capacity(), 15);
+    let first = tmp.path().join("first");
+    std::fs::create_dir_all(&first).unwrap();
+    run.save_checkpoint(&first.join("checkpoint.bin")).unwrap();
+    let point = rescue(&first, RescueLevel::Online);
+    assert_eq!(point.stored_episodes, 40, "two epochs of 10 cycles x 2 episodes");
+    let mut restarted = small_buffer_trainer(15);
+    let restart = restarted.restore_rescue(&point, 3).unwrap();
+    assert_eq!((restart.lost_episodes, restart.buffer_episodes), (40, Some(15)), "a full buffer of 15");
+    // One epoch (20 episodes) after the refill (3): 23 stored since the
+    // restart, of which the buffer holds its 15; a second restart loses those.
+    restarted.run_epoch().unwrap();
+    let second = tmp.path().join("second");
+    std::fs::create_dir_all(&second).unwrap();
+    restarted.save_checkpoint(&second.join("checkpoint.bin")).unwrap();
+    let point = rescue(&second, RescueLevel::Online);
+    let mut again = small_buffer_trainer(15);
+    let restart = again.restore_rescue(&point, 2).unwrap();
+    assert_eq!((restart.lost_episodes, restart.buffer_episodes), (63, Some(15)));
+    assert_eq!(again.restarts().len(), 2);
+    // With a larger buffer the second restart counts only the 23 stored since the first.
+    let mut wide = small_buffer_trainer(1000);
+    let restart = wide.restore_rescue(&point, 0).unwrap();
+    assert_eq!((restart.lost_episodes, restart.buffer_episodes), (63, Some(23)));
 }

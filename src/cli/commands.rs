@@ -204,8 +204,8 @@ fn train_with(args: &TrainArgs, comm: Arc<dyn Communicator>) -> Result<RunDir> {
         Some(point) => {
             let refill = args.refill.unwrap_or(config.trainer.cycles * config.trainer.episodes_per_cycle);
             eprintln!(
-                "restarting from the rescue point of epoch {} (keeps {}): {} episodes of replay lost, {refill} collected first",
-                point.epoch, point.keeps, point.stored_episodes
+                "restarting from the rescue point of epoch {} (keeps {}): its replay buffer is lost (restarts.jsonl counts it), {refill} episodes collected first",
+                point.epoch, point.keeps
             );
             run::Start::Rescue { point, refill }
         }

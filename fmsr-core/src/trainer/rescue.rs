@@ -73,8 +73,16 @@ pub struct Restart {
     pub epoch: usize,
     /// What the rescue point kept of the algorithm's state.
     pub keeps: String,
-    /// Episodes of the replay buffer that were lost (store indices below this).
+    /// The run's replay floor after the restart: every episode stored before
+    /// it (store indices below this, counted from the run's start) is gone.
+    /// Not the buffer's content: that is [`Restart::buffer_episodes`].
     pub lost_episodes: u64,
+    /// Episodes the replay buffer held when the rescue point was taken, all
+    /// lost: those stored since the run's start or its previous restart, at
+    /// most the buffer's capacity ([`Algorithm::storage_capacity`]). `None`
+    /// in records of binaries before 2026-11-29, which did not count it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub buffer_episodes: Option<u64>,
     /// Exploring episodes collected into the empty buffer before the next update.
     pub refill_episodes: usize,
 }
@@ -203,6 +211,8 @@ where
         self.collector.restore(meta.env_steps);
         self.log = crate::replay_log::ReplayLog::default();
         self.state = meta.state;
+        let held = (self.state.stored_episodes.saturating_sub(self.state.replay_floor))
+            .min(self.algorithm.storage_capacity() as u64);
         self.state.replay_floor = self.state.stored_episodes;
         let seeds: Vec<u64> = (0..refill).map(|_| self.state.rng.random::<u64>()).collect();
         let episodes = self.collector.rollouts(&mut self.algorithm, &seeds, ActMode::Explore)?;
@@ -218,6 +228,7 @@ where
             epoch: self.state.epoch,
             keeps: rescue.keeps.clone(),
             lost_episodes: self.state.replay_floor,
+            buffer_episodes: Some(held),
             refill_episodes: refill,
         };
         self.state.restarts.push(restart.clone());
