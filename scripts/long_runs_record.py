@@ -208,7 +208,7 @@ def restarts_note(r):
     """A sentence per restart of run `r` from its rescue point: when, what it kept and lost, which binary."""
     out = []
     restarts = r.get("restarts", [])
-    held = buffer_lost(restarts, buffer_capacity(r["dir"] / "config.toml") if "dir" in r else None)
+    held = buffer_lost(restarts, buffer_capacity(r["dir"] / "config.toml"))
     for x, h in zip(restarts, held):
         re_, binary = x.get("restart", {}), x.get("binary", {})
         lost = "the replay buffer" + (

@@ -63,18 +63,6 @@ fn the_trainer_steps_its_environments_on_trainer_threads() {
     assert_eq!(threads(4, None), cores.min(4));
 }
 
-/// A MADDPG Dense+FMSR+IS trainer on TeamReach whose replay holds `capacity` episodes.
-fn trainer_with_capacity(seed: u64, epochs: usize, capacity: usize) -> Trainer<TeamReach, AnyLearner> {
-    let method = Method::DenseFmsrIs;
-    let config = common::trainer_config(method, seed, epochs);
-    let env = common::team_reach(method);
-    let mut parts = common::parts(&env, method, seed, config.gamma_for(env.spec().episode_len));
-    parts.replay.buffer_size = capacity * env.spec().episode_len;
-    let layout = parts.layout.clone();
-    let learner = AnyLearner::new(Maddpg::new(parts, MaddpgConfig::new()).unwrap());
-    Trainer::new(config, env, learner, layout).unwrap()
-}
-
 fn segments(dir: &std::path::Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir.join("checkpoint.replay"))
         .unwrap()
@@ -92,10 +80,10 @@ fn resumed_run_matches_uninterrupted_run() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("checkpoint.bin");
 
-        let mut full = trainer_with_capacity(7, 4, capacity);
+        let mut full = common::trainer_with_capacity(7, 4, capacity);
         full.train(|_, _| Ok(())).unwrap();
 
-        let mut first = trainer_with_capacity(7, 3, capacity);
+        let mut first = common::trainer_with_capacity(7, 3, capacity);
         first.train(|t, _| t.save_checkpoint(&path)).unwrap();
         drop(first);
         let kept = segments(dir.path());
@@ -107,7 +95,7 @@ fn resumed_run_matches_uninterrupted_run() {
 
         // A fresh process would build the same trainer from the same config, with
         // more epochs, and load the checkpoint and the replay log.
-        let mut resumed = trainer_with_capacity(7, 4, capacity);
+        let mut resumed = common::trainer_with_capacity(7, 4, capacity);
         resumed.load_checkpoint(&path).unwrap();
         assert_eq!(resumed.epoch(), 3);
         resumed.train(|_, _| Ok(())).unwrap();
@@ -122,10 +110,10 @@ fn resumed_run_matches_uninterrupted_run() {
 fn a_missing_replay_segment_is_a_clear_error() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("checkpoint.bin");
-    let mut t = trainer_with_capacity(2, 2, 5000);
+    let mut t = common::trainer_with_capacity(2, 2, 5000);
     t.train(|t, _| t.save_checkpoint(&path)).unwrap();
     std::fs::remove_file(dir.path().join("checkpoint.replay").join(format!("{:020}.seg", 20))).unwrap();
-    let mut fresh = trainer_with_capacity(2, 2, 5000);
+    let mut fresh = common::trainer_with_capacity(2, 2, 5000);
     let err = fresh.load_checkpoint(&path).unwrap_err();
     assert!(err.to_string().contains("lacks episode 20"), "{err}");
     // Evaluating needs no replay.

@@ -183,20 +183,6 @@ fn the_command_line_rescues_and_restarts_a_run() {
     assert!(!out.status.success() && text(&out).contains("--resume"), "{}", text(&out));
 }
 
-/// A TeamReach (20 steps) Dense+FMSR+IS MADDPG trainer whose replay buffer
-/// holds `episodes` episodes.
-fn small_buffer_trainer(episodes: usize) -> Trainer<TeamReach, AnyLearner> {
-    let method = Method::DenseFmsrIs;
-    let config = common::trainer_config(method, SEED, EPOCHS);
-    let env = common::team_reach(method);
-    let mut parts = common::parts(&env, method, SEED, config.gamma_for(env.spec().episode_len));
-    parts.replay.buffer_size = episodes * env.spec().episode_len;
-    let layout = parts.layout.clone();
-    let learner = fmsr::algorithms::build("maddpg", None, parts).unwrap();
-    let envs = (0..config.num_envs()).map(|_| common::team_reach(method)).collect();
-    Trainer::with_envs(config, envs, learner, layout).unwrap()
-}
-
 // Guards what a restart records as lost (2026-11-29: the paper-budget
 // pair's records said 24200 episodes of replay lost from a buffer of
 // 10000): the episodes the buffer held, those stored since the run's start
@@ -205,7 +191,7 @@ fn small_buffer_trainer(episodes: usize) -> Trainer<TeamReach, AnyLearner> {
 #[test]
 fn a_restart_counts_the_buffer_it_lost_since_the_last_restart_and_within_its_capacity() {
     let tmp = tempfile::tempdir().unwrap();
-    let mut run = small_buffer_trainer(15);
+    let mut run = common::trainer_with_capacity(SEED, EPOCHS, 15);
     run.run_epoch().unwrap();
     run.run_epoch().unwrap();
     assert_eq!(run.algorithm().storage_capacity(), 15);
@@ -214,7 +200,7 @@ fn a_restart_counts_the_buffer_it_lost_since_the_last_restart_and_within_its_cap
     run.save_checkpoint(&first.join("checkpoint.bin")).unwrap();
     let point = rescue(&first, RescueLevel::Online);
     assert_eq!(point.stored_episodes, 40, "two epochs of 10 cycles x 2 episodes");
-    let mut restarted = small_buffer_trainer(15);
+    let mut restarted = common::trainer_with_capacity(SEED, EPOCHS, 15);
     let restart = restarted.restore_rescue(&point, 3).unwrap();
     assert_eq!((restart.lost_episodes, restart.buffer_episodes), (40, Some(15)), "a full buffer of 15");
     // One epoch (20 episodes) after the refill (3): 23 stored since the
@@ -224,12 +210,12 @@ fn a_restart_counts_the_buffer_it_lost_since_the_last_restart_and_within_its_cap
     std::fs::create_dir_all(&second).unwrap();
     restarted.save_checkpoint(&second.join("checkpoint.bin")).unwrap();
     let point = rescue(&second, RescueLevel::Online);
-    let mut again = small_buffer_trainer(15);
+    let mut again = common::trainer_with_capacity(SEED, EPOCHS, 15);
     let restart = again.restore_rescue(&point, 2).unwrap();
     assert_eq!((restart.lost_episodes, restart.buffer_episodes), (63, Some(15)));
     assert_eq!(again.restarts().len(), 2);
     // With a larger buffer the second restart counts only the 23 stored since the first.
-    let mut wide = small_buffer_trainer(1000);
+    let mut wide = common::trainer_with_capacity(SEED, EPOCHS, 1000);
     let restart = wide.restore_rescue(&point, 0).unwrap();
     assert_eq!((restart.lost_episodes, restart.buffer_episodes), (63, Some(23)));
 }

@@ -100,6 +100,18 @@ pub fn team_reach_trainer_config(
     Trainer::with_envs(config, envs, learner, layout).unwrap()
 }
 
+/// A MADDPG Dense+FMSR+IS trainer on TeamReach whose replay holds `capacity` episodes.
+pub fn trainer_with_capacity(seed: u64, epochs: usize, capacity: usize) -> Trainer<TeamReach, AnyLearner> {
+    let method = Method::DenseFmsrIs;
+    let config = trainer_config(method, seed, epochs);
+    let env = team_reach(method);
+    let mut parts = parts(&env, method, seed, config.gamma_for(env.spec().episode_len));
+    parts.replay.buffer_size = capacity * env.spec().episode_len;
+    let layout = parts.layout.clone();
+    let learner = AnyLearner::new(Maddpg::new(parts, MaddpgConfig::new()).unwrap());
+    Trainer::new(config, env, learner, layout).unwrap()
+}
+
 /// A MADDPG trainer of `method` on TeamReach.
 pub fn team_reach_trainer(method: Method, seed: u64, epochs: usize) -> Trainer<TeamReach, AnyLearner> {
     team_reach_trainer_with("maddpg", method, seed, epochs)
