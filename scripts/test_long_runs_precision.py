@@ -1,0 +1,71 @@
+#!/usr/bin/env python3
+"""Regression test: the long runs' precision table counts what it says.
+
+Guards the table `scripts/long_runs.sh record` writes beside the snapshots'
+success (2026-11-29): at snapshot 149 both runs of the paper-budget pair were
+at 98-100 % by the success rule at 0.4 rad, while their test episodes ended
+0.115 and 0.077 rad from the goal (median). The table gives the median final
+full angle and the episodes that ended within 0.1 rad without a drop. This
+checks, on made-up records whose answer is known: a dropped episode close to
+its goal does not count, the median is the median, evaluations written before
+the full angle was recorded give no row, and the difference is the first run
+minus the second. Runs in a second (CI's `long-runs-precision` stage).
+"""
+
+import sys
+from pathlib import Path
+
+root = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(root / "scripts"))
+import long_runs_record as rec  # noqa: E402
+
+
+def fail(msg):
+    print(f"FAIL: {msg}", file=sys.stderr)
+    sys.exit(1)
+
+
+def evaluation(angles, dropped=()):
+    """An evaluation whose episode i ended `angles[i]` rad from its goal, dropped where i is in `dropped`."""
+    return {"success_rate": 0.0, "episodes": len(angles), "records": [
+        {"dropped": i in dropped, "orientation": {"full_angle": a, "yaw_error": a, "tilt": 0.0}}
+        for i, a in enumerate(angles)]}
+
+
+# Five episodes: three end within 0.1 rad, one of those three was dropped, and
+# one ends exactly at 0.1 (not within).
+e = rec.final_angles(evaluation([0.05, 0.09, 0.08, 0.1, 0.7], dropped={2}))
+if e["precise"][0] != 2 / 5:
+    fail(f"within 0.1 rad without a drop should be 2 of 5, got {e['precise'][0]}")
+if abs(e["median_angle"] - 0.09) > 1e-12:
+    fail(f"median final angle should be 0.09, got {e['median_angle']}")
+lo, hi = e["precise"][1], e["precise"][2]
+if not (0 < lo < 0.4 < hi < 1):
+    fail(f"the Wilson interval of 2 of 5 should hold 0.4 strictly inside (0, 1), got [{lo}, {hi}]")
+
+# Evaluations from before the full angle was recorded (no `orientation`) give none.
+old = {"success_rate": 0.0, "episodes": 2, "records": [{"dropped": False}, {"dropped": False}]}
+if rec.final_angles(old) != {"median_angle": None, "precise": None}:
+    fail(f"an evaluation without the full angle should give no precision, got {rec.final_angles(old)}")
+
+
+def run(label, snapshots):
+    return {"label": label, "snapshots": [(k, {"test": t, "validation": None}) for k, t in snapshots.items()]}
+
+
+def test(angles):
+    e = evaluation(angles)
+    return {**e, **rec.final_angles(e)}
+
+
+a = run("Dense+FMSR+IS", {49: test([0.05] * 2 + [0.3] * 8), 99: test([0.05] * 10), 149: {"precise": None}})
+b = run("Dense", {49: test([0.05] * 6 + [0.3] * 4), 99: test([0.05] * 10), 149: test([0.05] * 10)})
+lines = rec.precision_table([a, b], [49, 99, 149])
+rows = [line for line in lines if line.startswith("| ") and not line.startswith("| Snapshot")]
+if [r.split(" |")[0] for r in rows] != ["| 49", "| 99"]:
+    fail(f"rows should be snapshots 49 and 99 (149 has no full angle in one run), got {rows}")
+if "20 % [" not in rows[0] or "60 % [" not in rows[0] or "| -40 pts [" not in rows[0]:
+    fail(f"snapshot 49 should read 20 % against 60 %, difference -40 pts: {rows[0]}")
+if rec.precision_table([a, b], [149]) != []:
+    fail("a table without a row should not be written")
+print("ok: the precision table counts episodes within 0.1 rad without a drop, per snapshot")
