@@ -30,6 +30,7 @@ import argparse
 import csv
 import json
 import math
+import statistics
 import sys
 from pathlib import Path
 
@@ -92,6 +93,33 @@ def wilson(k, n):
     c = (p + Z * Z / (2 * n)) / d
     h = Z / d * math.sqrt(p * (1 - p) / n + Z * Z / (4 * n * n))
     return p, max(0.0, c - h), min(1.0, c + h)
+
+
+# The training threshold (rad): how many test episodes end this close to the goal.
+PRECISE = 0.1
+
+
+def final_angles(e):
+    """How close the episodes of evaluation `e` ended to their goals, by the full angle between the quaternions:
+    the median final angle, and the Wilson interval of the episodes that ended within PRECISE of the goal without
+    a drop. Both None for an evaluation whose records hold no full angle (before 2026-11-27)."""
+    angles = [r.get("orientation", {}).get("full_angle") for r in e.get("records", [])]
+    if not angles or any(a is None for a in angles):
+        return {"median_angle": None, "precise": None}
+    close = sum(1 for a, r in zip(angles, e["records"]) if a < PRECISE and not r.get("dropped"))
+    return {"median_angle": statistics.median(angles), "precise": wilson(close, len(angles))}
+
+
+def precision_rows(ea, eb, labels):
+    """How close the episodes of evaluations ea and eb ended to their goals (ours, not the paper's measure):
+    a table of two rows and the difference, or nothing when either lacks the full angle."""
+    pa, pb = final_angles(ea), final_angles(eb)
+    if pa["precise"] is None or pb["precise"] is None:
+        return []
+    return [f"| Run | Median final angle (rad) | Within {PRECISE} rad, not dropped ({ea['episodes']}) |", "|---|---|---|",
+            f"| {labels[0]} | {pa['median_angle']:.3f} | {pct(pa['precise'])} |",
+            f"| {labels[1]} | {pb['median_angle']:.3f} | {pct(pb['precise'])} |",
+            f"| Difference | | {pts(newcombe(pa['precise'], pb['precise']))} |"]
 
 
 def newcombe(a, b):
@@ -339,6 +367,11 @@ def section_lines(finals, records_rel, pretrained_rel):
                       "our values mean ± std over the episodes):", ""] + ORDERING_HEADER
             lines += table1_rows(a, b, engine)
             lines.append("")
+            close = precision_rows(a["finals"][f"test-{engine}"], b["finals"][f"test-{engine}"], (a["label"], b["label"]))
+            if close:
+                lines += [f"**How close the test episodes ended to their goals, {name}** (ours, not the paper's "
+                          "measure: the success rule at 0.4 rad cannot separate two runs near its ceiling):", ""]
+                lines += close + [""]
         lines += [f"**Failure types (Table II), {name}:**", "",
                   "| Policy | Trials | Failures | Incomplete | Drops | Drops of the failures |", "|---|---|---|---|---|---|"]
         lines += table2_rows(finals, engine)

@@ -25,7 +25,7 @@ import tomllib
 from pathlib import Path
 
 import long_runs_final
-from long_runs_final import newcombe as difference, pct, pts, wilson
+from long_runs_final import PRECISE, final_angles, newcombe as difference, pct, pts, wilson
 
 BEGIN = "<!-- paper-budget:begin (written by scripts/long_runs.sh record) -->"
 END = "<!-- paper-budget:end -->"
@@ -47,21 +47,6 @@ def read_eval(path):
     drops = sum(1 for r in e.get("records", []) if r.get("dropped"))
     return {"interval": wilson(k, e["episodes"]), "episodes": e["episodes"], "drops": drops,
             "rule": e.get("success_rule", "reached"), **final_angles(e)}
-
-
-# The training threshold (rad): how many test episodes end this close to the goal.
-PRECISE = 0.1
-
-
-def final_angles(e):
-    """How close the episodes of evaluation `e` ended to their goals, by the full angle between the quaternions:
-    the median final angle, and the Wilson interval of the episodes that ended within PRECISE of the goal without
-    a drop. Both None for an evaluation whose records hold no full angle (before 2026-11-27)."""
-    angles = [r.get("orientation", {}).get("full_angle") for r in e.get("records", [])]
-    if not angles or any(a is None for a in angles):
-        return {"median_angle": None, "precise": None}
-    close = sum(1 for a, r in zip(angles, e["records"]) if a < PRECISE and not r.get("dropped"))
-    return {"median_angle": median(angles), "precise": wilson(close, len(angles))}
 
 
 def trim(path):

@@ -9,7 +9,8 @@ full angle and the episodes that ended within 0.1 rad without a drop. This
 checks, on made-up records whose answer is known: a dropped episode close to
 its goal does not count, the median is the median, evaluations written before
 the full angle was recorded give no row, and the difference is the first run
-minus the second. Runs in a second (CI's `long-runs-precision` stage).
+minus the second; and `finish`'s table of the same for the final evaluations.
+Runs in a second (CI's `long-runs-precision` stage).
 """
 
 import sys
@@ -17,6 +18,7 @@ from pathlib import Path
 
 root = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(root / "scripts"))
+import long_runs_final as fin  # noqa: E402
 import long_runs_record as rec  # noqa: E402
 
 
@@ -68,4 +70,12 @@ if "20 % [" not in rows[0] or "60 % [" not in rows[0] or "| -40 pts [" not in ro
     fail(f"snapshot 49 should read 20 % against 60 %, difference -40 pts: {rows[0]}")
 if rec.precision_table([a, b], [149]) != []:
     fail("a table without a row should not be written")
+# `finish`'s table, the final evaluations: 3 of 4 against 1 of 4 within 0.1 rad (one close episode dropped).
+rows = fin.precision_rows(evaluation([0.01, 0.02, 0.03, 0.5]), evaluation([0.01, 0.02, 0.3, 0.5], dropped={1}),
+                          ("Dense+FMSR+IS", "Dense"))
+if len(rows) != 5 or "| Dense+FMSR+IS | 0.025 | 75 % [" not in rows[2] or "| Dense | 0.160 | 25 % [" not in rows[3] \
+        or "| +50 pts [" not in rows[4]:
+    fail(f"finish's table should read 75 % (median 0.025) against 25 % (median 0.160), +50 pts: {rows}")
+if fin.precision_rows(old, old, ("a", "b")) != []:
+    fail("finish's table should be left out for evaluations without the full angle")
 print("ok: the precision table counts episodes within 0.1 rad without a drop, per snapshot")
