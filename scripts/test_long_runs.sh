@@ -198,7 +198,9 @@ for run in egg_dense_fmsr_is egg_dense; do
 done
 for engine in MuJoCo rapier; do
   grep -q "The paper's orderings, Dense+FMSR+IS against Dense, $engine" "$scratch/results.md" || fail "no comparison with the paper on $engine"
+  grep -q "How close the test episodes ended to their goals, $engine" "$scratch/results.md" || fail "no precision of the final policies on $engine"
 done
+grep -q "| Snapshot | Dense+FMSR+IS median angle |" "$scratch/results.md" || fail "no precision of the snapshots"
 grep -q "on the fixed test set on MuJoCo (the engine they trained on)" "$scratch/results.md" || fail "the summary line is not on the trained-on engine"
 grep -q "At the paper's budget (2 epochs), egg, seed 0, ended" "$scratch/results.md" || fail "no summary line"
 grep -q "| \[\`egg_dense_paper\`\](egg_dense_paper/README.md) | Dense, 6 agents | [0-9]* | MuJoCo |" "$scratch/pretrained/README.md" || fail "no row in pretrained/README.md"
