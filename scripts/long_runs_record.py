@@ -470,6 +470,10 @@ def summary_bullet(runs, finals, link):
             a, b = (t["interval"] for t in tests)
             da, db = (wilson(t["drops"], t["episodes"]) for t in tests)
             text += f"; difference {pts(difference(a, b))}, in drops {pts(difference(da, db))}"
+            if all(t["precise"] for t in tests):
+                pa, pb = (t["precise"] for t in tests)
+                text += (f"; ended within {PRECISE} rad of the goal (ours, not the paper's measure: both near the "
+                         f"rule's ceiling) {pct(pa)} against {pct(pb)}, {pts(difference(pa, pb))}")
         paper = long_runs_final.PAPER_TABLE1["egg"]
         rates = " against ".join(f"{paper[r['label']][0]} %" for r in runs if r["label"] in paper)
         text += (f". The paper: {rates}; "
