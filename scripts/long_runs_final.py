@@ -101,13 +101,24 @@ PRECISE = 0.1
 
 def final_angles(e):
     """How close the episodes of evaluation `e` ended to their goals, by the full angle between the quaternions:
-    the median final angle, and the Wilson interval of the episodes that ended within PRECISE of the goal without
-    a drop. Both None for an evaluation whose records hold no full angle (before 2026-11-27)."""
-    angles = [r.get("orientation", {}).get("full_angle") for r in e.get("records", [])]
+    the median final angle, its parts' medians (the error about the vertical and the tilt from it, when recorded),
+    and the Wilson interval of the episodes that ended within PRECISE of the goal without a drop. All None for an
+    evaluation whose records hold no full angle (before 2026-11-27)."""
+    orient = [r.get("orientation", {}) for r in e.get("records", [])]
+    angles = [o.get("full_angle") for o in orient]
     if not angles or any(a is None for a in angles):
-        return {"median_angle": None, "precise": None}
+        return {"median_angle": None, "median_yaw": None, "median_tilt": None, "precise": None}
+    part = lambda key: None if any(o.get(key) is None for o in orient) else statistics.median(o[key] for o in orient)
     close = sum(1 for a, r in zip(angles, e["records"]) if a < PRECISE and not r.get("dropped"))
-    return {"median_angle": statistics.median(angles), "precise": wilson(close, len(angles))}
+    return {"median_angle": statistics.median(angles), "median_yaw": part("yaw_error"), "median_tilt": part("tilt"),
+            "precise": wilson(close, len(angles))}
+
+
+def angle_cell(p):
+    """A median final angle with its parts, as the tables write it: `0.115 (yaw 0.046, tilt 0.097)`."""
+    parts = "" if p["median_yaw"] is None or p["median_tilt"] is None else \
+        f" (yaw {p['median_yaw']:.3f}, tilt {p['median_tilt']:.3f})"
+    return f"{p['median_angle']:.3f}{parts}"
 
 
 def precision_rows(ea, eb, labels):
@@ -117,8 +128,8 @@ def precision_rows(ea, eb, labels):
     if pa["precise"] is None or pb["precise"] is None:
         return []
     return [f"| Run | Median final angle (rad) | Within {PRECISE} rad, not dropped ({ea['episodes']}) |", "|---|---|---|",
-            f"| {labels[0]} | {pa['median_angle']:.3f} | {pct(pa['precise'])} |",
-            f"| {labels[1]} | {pb['median_angle']:.3f} | {pct(pb['precise'])} |",
+            f"| {labels[0]} | {angle_cell(pa)} | {pct(pa['precise'])} |",
+            f"| {labels[1]} | {angle_cell(pb)} | {pct(pb['precise'])} |",
             f"| Difference | | {pts(newcombe(pa['precise'], pb['precise']))} |"]
 
 

@@ -25,7 +25,7 @@ import tomllib
 from pathlib import Path
 
 import long_runs_final
-from long_runs_final import PRECISE, final_angles, newcombe as difference, pct, pts, wilson
+from long_runs_final import PRECISE, angle_cell, final_angles, newcombe as difference, pct, pts, wilson
 
 BEGIN = "<!-- paper-budget:begin (written by scripts/long_runs.sh record) -->"
 END = "<!-- paper-budget:end -->"
@@ -425,13 +425,14 @@ def precision_table(runs, epochs):
         tests = [(dict(r["snapshots"]).get(k) or {}).get("test") for r in runs]
         if not all(t and t["precise"] for t in tests):
             continue
-        cells = "".join(f" {t['median_angle']:.3f} | {pct(t['precise'])} |" for t in tests)
+        cells = "".join(f" {angle_cell(t)} | {pct(t['precise'])} |" for t in tests)
         diff = pts(difference(tests[0]["precise"], tests[1]["precise"])) if len(tests) == 2 else "n/a"
         rows.append(f"| {k} |{cells} {diff} |")
     if not rows:
         return []
     return ["", f"How close the same test episodes ended to their goals, by the full angle at the last step: the "
-            f"median final angle (rad), and the episodes that ended within {PRECISE} rad (the training threshold) "
+            "median final angle (rad; in brackets the medians of its parts, the error about the vertical and the tilt "
+            f"from it), and the episodes that ended within {PRECISE} rad (the training threshold) "
             "without a drop, with the difference Dense+FMSR+IS minus Dense (Newcombe's interval). The success rule "
             "at 0.4 rad cannot separate two runs near its ceiling; this is not the paper's measure:", "",
             "| Snapshot |" + "".join(f" {r['label']} median angle | {r['label']} within {PRECISE} rad |" for r in runs)

@@ -47,7 +47,7 @@ if not (0 < lo < 0.4 < hi < 1):
 
 # Evaluations from before the full angle was recorded (no `orientation`) give none.
 old = {"success_rate": 0.0, "episodes": 2, "records": [{"dropped": False}, {"dropped": False}]}
-if rec.final_angles(old) != {"median_angle": None, "precise": None}:
+if rec.final_angles(old) != {"median_angle": None, "median_yaw": None, "median_tilt": None, "precise": None}:
     fail(f"an evaluation without the full angle should give no precision, got {rec.final_angles(old)}")
 
 
@@ -68,12 +68,15 @@ if [r.split(" |")[0] for r in rows] != ["| 49", "| 99"]:
     fail(f"rows should be snapshots 49 and 99 (149 has no full angle in one run), got {rows}")
 if "20 % [" not in rows[0] or "60 % [" not in rows[0] or "| -40 pts [" not in rows[0]:
     fail(f"snapshot 49 should read 20 % against 60 %, difference -40 pts: {rows[0]}")
+if any("{" in line for line in lines):
+    fail(f"the table's text has an unformatted field: {lines}")
 if rec.precision_table([a, b], [149]) != []:
     fail("a table without a row should not be written")
 # `finish`'s table, the final evaluations: 3 of 4 against 1 of 4 within 0.1 rad (one close episode dropped).
 rows = fin.precision_rows(evaluation([0.01, 0.02, 0.03, 0.5]), evaluation([0.01, 0.02, 0.3, 0.5], dropped={1}),
                           ("Dense+FMSR+IS", "Dense"))
-if len(rows) != 5 or "| Dense+FMSR+IS | 0.025 | 75 % [" not in rows[2] or "| Dense | 0.160 | 25 % [" not in rows[3] \
+if len(rows) != 5 or "| Dense+FMSR+IS | 0.025 (yaw 0.025, tilt 0.000) | 75 % [" not in rows[2] \
+        or "| Dense | 0.160 (yaw 0.160, tilt 0.000) | 25 % [" not in rows[3] \
         or "| +50 pts [" not in rows[4]:
     fail(f"finish's table should read 75 % (median 0.025) against 25 % (median 0.160), +50 pts: {rows}")
 if fin.precision_rows(old, old, ("a", "b")) != []:
