@@ -32,6 +32,7 @@ import json
 import math
 import statistics
 import sys
+import tomllib
 from pathlib import Path
 
 Z = 1.959963984540054
@@ -95,23 +96,31 @@ def wilson(k, n):
     return p, max(0.0, c - h), min(1.0, c + h)
 
 
-# The training threshold (rad): how many test episodes end this close to the goal.
-PRECISE = 0.1
+def training_threshold(config_path):
+    """The training threshold (rad) of a run: `env.success_threshold` of its config.toml, rounded to 6 decimals (the
+    binary writes the f32, 0.10000000149011612), the distance the precision tables count episodes within. None when
+    the file or the key is missing or unreadable: those tables are then left out, never drawn at a guessed value."""
+    try:
+        return round(float(tomllib.loads(Path(config_path).read_text())["env"]["success_threshold"]), 6)
+    except (OSError, KeyError, TypeError, ValueError, tomllib.TOMLDecodeError):
+        return None
 
 
-def final_angles(e):
+def final_angles(e, within):
     """How close the episodes of evaluation `e` ended to their goals, by the full angle between the quaternions:
     the median final angle, its parts' medians (the error about the vertical and the tilt from it, when recorded),
-    and the Wilson interval of the episodes that ended within PRECISE of the goal without a drop. All None for an
-    evaluation whose records hold no full angle (before 2026-11-27)."""
+    and the Wilson interval of the episodes that ended within `within` rad of the goal (the run's training
+    threshold, `training_threshold`) without a drop. All None for an evaluation whose records hold no full angle
+    (before 2026-11-27); `precise` None also when `within` is None."""
     orient = [r.get("orientation", {}) for r in e.get("records", [])]
     angles = [o.get("full_angle") for o in orient]
     if not angles or any(a is None for a in angles):
-        return {"median_angle": None, "median_yaw": None, "median_tilt": None, "precise": None}
+        return {"median_angle": None, "median_yaw": None, "median_tilt": None, "precise": None, "within": within}
     part = lambda key: None if any(o.get(key) is None for o in orient) else statistics.median(o[key] for o in orient)
-    close = sum(1 for a, r in zip(angles, e["records"]) if a < PRECISE and not r.get("dropped"))
+    close = None if within is None else \
+        sum(1 for a, r in zip(angles, e["records"]) if a < within and not r.get("dropped"))
     return {"median_angle": statistics.median(angles), "median_yaw": part("yaw_error"), "median_tilt": part("tilt"),
-            "precise": wilson(close, len(angles))}
+            "precise": None if close is None else wilson(close, len(angles)), "within": within}
 
 
 def angle_cell(p):
@@ -121,16 +130,26 @@ def angle_cell(p):
     return f"{p['median_angle']:.3f}{parts}"
 
 
-def precision_rows(ea, eb, labels):
+def within_label(thresholds):
+    """The column label of the precision tables for the runs' training thresholds: `within 0.1 rad` when they
+    agree; one per run otherwise, when the shares measure different things and no difference is taken."""
+    return f"{thresholds[0]:g} rad" if len(set(thresholds)) == 1 else \
+        " and ".join(f"{t:g}" for t in thresholds) + " rad (each run's own; no difference taken)"
+
+
+def precision_rows(ea, eb, labels, within):
     """How close the episodes of evaluations ea and eb ended to their goals (ours, not the paper's measure):
-    a table of two rows and the difference, or nothing when either lacks the full angle."""
-    pa, pb = final_angles(ea), final_angles(eb)
+    a table of two rows and the difference, or nothing when either lacks the full angle or its threshold.
+    `within`: the two runs' training thresholds; the difference only when they agree."""
+    pa, pb = final_angles(ea, within[0]), final_angles(eb, within[1])
     if pa["precise"] is None or pb["precise"] is None:
         return []
-    return [f"| Run | Median final angle (rad) | Within {PRECISE} rad, not dropped ({ea['episodes']}) |", "|---|---|---|",
+    diff = pts(newcombe(pa["precise"], pb["precise"])) if within[0] == within[1] else "n/a (thresholds differ)"
+    return [f"| Run | Median final angle (rad) | Within {within_label(list(within))}, not dropped ({ea['episodes']}) |",
+            "|---|---|---|",
             f"| {labels[0]} | {angle_cell(pa)} | {pct(pa['precise'])} |",
             f"| {labels[1]} | {angle_cell(pb)} | {pct(pb['precise'])} |",
-            f"| Difference | | {pts(newcombe(pa['precise'], pb['precise']))} |"]
+            f"| Difference | | {diff} |"]
 
 
 def newcombe(a, b):
@@ -219,7 +238,8 @@ def load_final(run_records):
     env_steps = int(metrics[-1]["env_steps"]) if metrics else 0
     return {"name": run_records.name, "label": LABELS[method], "task": finals["test-rapier"]["task"],
             "engine": engine_of(finals["test-rapier"], "trained_on"), "finals": finals, "best": k, "best_test": snap, "best_validation_episodes": val["episodes"] if val else 0,
-            "epochs": len(metrics), "env_steps": env_steps}
+            "epochs": len(metrics), "env_steps": env_steps,
+            "within": training_threshold(run_records / "config.toml")}
 
 
 ORDERING_HEADER = ["| Measure | The paper: Dense+FMSR+IS | The paper: Dense | Ours: Dense+FMSR+IS | Ours: Dense | "
@@ -378,7 +398,8 @@ def section_lines(finals, records_rel, pretrained_rel):
                       "our values mean ± std over the episodes):", ""] + ORDERING_HEADER
             lines += table1_rows(a, b, engine)
             lines.append("")
-            close = precision_rows(a["finals"][f"test-{engine}"], b["finals"][f"test-{engine}"], (a["label"], b["label"]))
+            close = precision_rows(a["finals"][f"test-{engine}"], b["finals"][f"test-{engine}"], (a["label"], b["label"]),
+                                   (a["within"], b["within"]))
             if close:
                 lines += [f"**How close the test episodes ended to their goals, {name}** (ours, not the paper's "
                           "measure: the success rule at 0.4 rad cannot separate two runs near its ceiling):", ""]

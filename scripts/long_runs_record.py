@@ -25,7 +25,8 @@ import tomllib
 from pathlib import Path
 
 import long_runs_final
-from long_runs_final import PRECISE, angle_cell, final_angles, newcombe as difference, pct, pts, wilson
+from long_runs_final import angle_cell, final_angles, newcombe as difference, pct, pts, training_threshold, wilson
+from long_runs_final import within_label
 
 BEGIN = "<!-- paper-budget:begin (written by scripts/long_runs.sh record) -->"
 END = "<!-- paper-budget:end -->"
@@ -39,14 +40,14 @@ def read_metrics(path):
         return list(csv.DictReader(f))
 
 
-def read_eval(path):
+def read_eval(path, within):
     if not path.exists():
         return None
     e = json.loads(path.read_text())
     k = round(e["success_rate"] * e["episodes"])
     drops = sum(1 for r in e.get("records", []) if r.get("dropped"))
     return {"interval": wilson(k, e["episodes"]), "episodes": e["episodes"], "drops": drops,
-            "rule": e.get("success_rule", "reached"), **final_angles(e)}
+            "rule": e.get("success_rule", "reached"), **final_angles(e, within)}
 
 
 def trim(path):
@@ -160,11 +161,13 @@ def load_run(records, home, name):
     env = keeper_env(d / "keeper.env")
     metrics = read_metrics(d / "metrics.csv")
     snaps = []
+    within = training_threshold(d / "config.toml")
     for p in sorted((d / "snapshots").glob("epoch-*.json")) + sorted((d / "final").glob("*.json")):
         trim(p)
     for p in sorted((d / "snapshots").glob("epoch-*.test.json")):
         k = int(p.name.split(".")[0].split("-")[1])
-        snaps.append((k, {"test": read_eval(p), "validation": read_eval(d / "snapshots" / f"epoch-{k:03d}.validation.json")}))
+        snaps.append((k, {"test": read_eval(p, within),
+                          "validation": read_eval(d / "snapshots" / f"epoch-{k:03d}.validation.json", within)}))
     return {
         "name": name,
         "dir": d,
@@ -173,6 +176,8 @@ def load_run(records, home, name):
         "planned": int(env.get("EPOCHS", "400")),
         "metrics": metrics,
         "snapshots": snaps,
+        # The training threshold (rad) the precision table counts episodes within, from config.toml.
+        "within": within,
         "alive": alive(home, name),
         # Restarts from the run's rescue point (`fmsr train --rescue`), as restarts.jsonl records them.
         "restarts": long_runs_final.read_restarts(d / "restarts.jsonl"),
@@ -233,7 +238,7 @@ def load_lost(lost_dir):
         snaps = []
         for p in sorted((d / "snapshots").glob("epoch-*.test.json")):
             k = int(p.name.split(".")[0].split("-")[1])
-            snaps.append((k, read_eval(p)))
+            snaps.append((k, read_eval(p, training_threshold(d / "config.toml"))))
         found = keeper_env(d / "lost.env").get("FOUND")
         out.append({"dir": d.name, "env": env, "metrics": metrics, "snapshots": snaps, "found": found})
     return out
@@ -419,24 +424,30 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
 
 def precision_table(runs, epochs):
     """How close the test episodes ended to their goals, per snapshot: what the success rule at 0.4 rad no longer
-    tells apart once both runs are near its ceiling."""
+    tells apart once both runs are near its ceiling. Each run counts the episodes within its own training threshold
+    (`within`, from its config.toml); the difference is taken only when the two thresholds agree."""
     rows = []
+    within = [r.get("within") for r in runs]
+    same = len(set(within)) == 1
     for k in epochs:
         tests = [(dict(r["snapshots"]).get(k) or {}).get("test") for r in runs]
         if not all(t and t["precise"] for t in tests):
             continue
         cells = "".join(f" {angle_cell(t)} | {pct(t['precise'])} |" for t in tests)
-        diff = pts(difference(tests[0]["precise"], tests[1]["precise"])) if len(tests) == 2 else "n/a"
+        diff = pts(difference(tests[0]["precise"], tests[1]["precise"])) if len(tests) == 2 and same else "n/a"
         rows.append(f"| {k} |{cells} {diff} |")
     if not rows:
         return []
     return ["", f"How close the same test episodes ended to their goals, by the full angle at the last step: the "
             "median final angle (rad; in brackets the medians of its parts, the error about the vertical and the tilt "
-            f"from it), and the episodes that ended within {PRECISE} rad (the training threshold) "
-            "without a drop, with the difference Dense+FMSR+IS minus Dense (Newcombe's interval). The success rule "
-            "at 0.4 rad cannot separate two runs near its ceiling; this is not the paper's measure:", "",
-            "| Snapshot |" + "".join(f" {r['label']} median angle | {r['label']} within {PRECISE} rad |" for r in runs)
-            + f" Difference (within {PRECISE} rad) |", "|" + "---|" * (2 + 2 * len(runs))] + rows
+            f"from it), and the episodes that ended within {within_label(within)} (the training threshold, "
+            "`env.success_threshold`) without a drop, with the difference Dense+FMSR+IS minus Dense (Newcombe's "
+            "interval). The success rule at 0.4 rad cannot separate two runs near its ceiling; this is not the "
+            "paper's measure:", "",
+            "| Snapshot |" + "".join(f" {r['label']} median angle | {r['label']} within {r['within']:g} rad |"
+                                     for r in runs)
+            + (f" Difference (within {within[0]:g} rad) |" if same else " Difference |"),
+            "|" + "---|" * (2 + 2 * len(runs))] + rows
 
 
 SUMMARY_BEGIN = "<!-- paper-budget-summary:begin (written by scripts/long_runs.sh record) -->"
@@ -471,9 +482,9 @@ def summary_bullet(runs, finals, link):
             a, b = (t["interval"] for t in tests)
             da, db = (wilson(t["drops"], t["episodes"]) for t in tests)
             text += f"; difference {pts(difference(a, b))}, in drops {pts(difference(da, db))}"
-            if all(t["precise"] for t in tests):
+            if all(t["precise"] for t in tests) and tests[0]["within"] == tests[1]["within"]:
                 pa, pb = (t["precise"] for t in tests)
-                text += (f"; ended within {PRECISE} rad of the goal (ours, not the paper's measure: both near the "
+                text += (f"; ended within {tests[0]['within']:g} rad of the goal (ours, not the paper's measure: both near the "
                          f"rule's ceiling) {pct(pa)} against {pct(pb)}, {pts(difference(pa, pb))}")
         paper = long_runs_final.PAPER_TABLE1["egg"]
         rates = " against ".join(f"{paper[r['label']][0]} %" for r in runs if r["label"] in paper)

@@ -14,6 +14,7 @@ Runs in a second (CI's `long-runs-precision` stage).
 """
 
 import sys
+import tempfile
 from pathlib import Path
 
 root = Path(__file__).resolve().parent.parent
@@ -36,7 +37,7 @@ def evaluation(angles, dropped=()):
 
 # Five episodes: three end within 0.1 rad, one of those three was dropped, and
 # one ends exactly at 0.1 (not within).
-e = rec.final_angles(evaluation([0.05, 0.09, 0.08, 0.1, 0.7], dropped={2}))
+e = rec.final_angles(evaluation([0.05, 0.09, 0.08, 0.1, 0.7], dropped={2}), 0.1)
 if e["precise"][0] != 2 / 5:
     fail(f"within 0.1 rad without a drop should be 2 of 5, got {e['precise'][0]}")
 if abs(e["median_angle"] - 0.09) > 1e-12:
@@ -47,17 +48,38 @@ if not (0 < lo < 0.4 < hi < 1):
 
 # Evaluations from before the full angle was recorded (no `orientation`) give none.
 old = {"success_rate": 0.0, "episodes": 2, "records": [{"dropped": False}, {"dropped": False}]}
-if rec.final_angles(old) != {"median_angle": None, "median_yaw": None, "median_tilt": None, "precise": None}:
-    fail(f"an evaluation without the full angle should give no precision, got {rec.final_angles(old)}")
+if rec.final_angles(old, 0.1) != {"median_angle": None, "median_yaw": None, "median_tilt": None, "precise": None,
+                                  "within": 0.1}:
+    fail(f"an evaluation without the full angle should give no precision, got {rec.final_angles(old, 0.1)}")
+# The same episodes counted at another training threshold: within 0.06 rad only the first.
+if rec.final_angles(evaluation([0.05, 0.09, 0.08, 0.1, 0.7], dropped={2}), 0.06)["precise"][0] != 1 / 5:
+    fail("within 0.06 rad without a drop should be 1 of 5")
+# Without a threshold (no config.toml, no `env.success_threshold`) there is no share, never one at a guessed value.
+if rec.final_angles(evaluation([0.05]), None)["precise"] is not None:
+    fail("an evaluation without a training threshold should give no share")
+
+# The threshold comes from the run's config.toml, as the binary writes it (the f32 of 0.1).
+with tempfile.TemporaryDirectory() as tmp:
+    config = Path(tmp) / "config.toml"
+    config.write_text('method = "dense"\n\n[env]\nepisode_len = 50\nsuccess_threshold = 0.10000000149011612\n')
+    if fin.training_threshold(config) != 0.1:
+        fail(f"the threshold of a config with success_threshold = 0.1 (f32) should read 0.1, got "
+             f"{fin.training_threshold(config)}")
+    config.write_text('method = "dense"\n\n[env]\nepisode_len = 50\n')
+    if fin.training_threshold(config) is not None:
+        fail("a config without env.success_threshold should give no threshold")
+    if fin.training_threshold(Path(tmp) / "missing.toml") is not None:
+        fail("a missing config should give no threshold")
 
 
-def run(label, snapshots):
-    return {"label": label, "snapshots": [(k, {"test": t, "validation": None}) for k, t in snapshots.items()]}
+def run(label, snapshots, within=0.1):
+    return {"label": label, "within": within,
+            "snapshots": [(k, {"test": t, "validation": None}) for k, t in snapshots.items()]}
 
 
-def test(angles):
+def test(angles, within=0.1):
     e = evaluation(angles)
-    return {**e, **rec.final_angles(e)}
+    return {**e, **rec.final_angles(e, within)}
 
 
 a = run("Dense+FMSR+IS", {49: test([0.05] * 2 + [0.3] * 8), 99: test([0.05] * 10), 149: {"precise": None}})
@@ -74,11 +96,24 @@ if rec.precision_table([a, b], [149]) != []:
     fail("a table without a row should not be written")
 # `finish`'s table, the final evaluations: 3 of 4 against 1 of 4 within 0.1 rad (one close episode dropped).
 rows = fin.precision_rows(evaluation([0.01, 0.02, 0.03, 0.5]), evaluation([0.01, 0.02, 0.3, 0.5], dropped={1}),
-                          ("Dense+FMSR+IS", "Dense"))
+                          ("Dense+FMSR+IS", "Dense"), (0.1, 0.1))
 if len(rows) != 5 or "| Dense+FMSR+IS | 0.025 (yaw 0.025, tilt 0.000) | 75 % [" not in rows[2] \
         or "| Dense | 0.160 (yaw 0.160, tilt 0.000) | 25 % [" not in rows[3] \
         or "| +50 pts [" not in rows[4]:
     fail(f"finish's table should read 75 % (median 0.025) against 25 % (median 0.160), +50 pts: {rows}")
-if fin.precision_rows(old, old, ("a", "b")) != []:
+if fin.precision_rows(old, old, ("a", "b"), (0.1, 0.1)) != []:
     fail("finish's table should be left out for evaluations without the full angle")
-print("ok: the precision table counts episodes within 0.1 rad without a drop, per snapshot")
+
+# Runs trained to different thresholds: each share at its own, and no difference between them.
+a = run("Dense+FMSR+IS", {49: test([0.05] * 10, 0.1)}, 0.1)
+b = run("Dense", {49: test([0.05] * 5 + [0.15] * 5, 0.2)}, 0.2)
+lines = rec.precision_table([a, b], [49])
+row = [line for line in lines if line.startswith("| 49")]
+if not row or "100 % [" not in row[0] or not row[0].endswith(" n/a |") or "pts" in row[0]:
+    fail(f"runs at thresholds 0.1 and 0.2 should read 100 % each with no difference: {row}")
+if not any("within 0.1 rad" in line and "within 0.2 rad" in line for line in lines):
+    fail(f"the header should name each run's own threshold: {lines}")
+rows = fin.precision_rows(evaluation([0.05, 0.5]), evaluation([0.15, 0.5]), ("a", "b"), (0.1, 0.2))
+if not rows or "50 % [" not in rows[3] or "pts" in rows[4]:
+    fail(f"finish's table at thresholds 0.1 and 0.2 should count 0.15 within 0.2 and take no difference: {rows}")
+print("ok: the precision table counts episodes within each run's training threshold without a drop, per snapshot")
