@@ -25,8 +25,8 @@ import tomllib
 from pathlib import Path
 
 import long_runs_final
-from long_runs_final import angle_cell, final_angles, newcombe as difference, pct, pts, training_threshold, wilson
-from long_runs_final import within_label
+from long_runs_final import (angle_cell, final_angles, newcombe as difference, pct, pts, training_threshold, wilson,
+                              within_label)
 
 BEGIN = "<!-- paper-budget:begin (written by scripts/long_runs.sh record) -->"
 END = "<!-- paper-budget:end -->"
