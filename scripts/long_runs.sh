@@ -211,7 +211,12 @@ launch() {
   setsid nohup nice -n 19 bash "$dir/keeper.sh" _drive "$dir" >> "$dir/keeper.log" 2>&1 < /dev/null &
   # The driver takes its lock at once; wait for it so a second call sees it.
   for _ in $(seq 50); do alive "$dir" && break; sleep 0.1; done
-  echo "$(basename "$dir"): started at epoch $(epochs_done "$dir") (log $dir/keeper.log)"
+  if [ -f "$dir/rescue.fmsr" ] && [ ! -f "$dir/run/checkpoint.bin" ]; then
+    # Restored by `resume`: no checkpoint yet, the driver restarts from the rescue point.
+    echo "$(basename "$dir"): started from its rescue point of epoch $(sed -n 's/^EPOCH=//p' "$dir/rescue.env" 2> /dev/null) (log $dir/keeper.log)"
+  else
+    echo "$(basename "$dir"): started at epoch $(epochs_done "$dir") (log $dir/keeper.log)"
+  fi
 }
 
 # The config with one stepping thread and one learner thread: `threads` in
@@ -320,6 +325,7 @@ restore_from_rescue() {
   if [ -f "$out/provenance.json" ]; then cp "$out/provenance.json" "$dir/run/provenance.json"; fi
   if [ -f "$out/restarts.jsonl" ]; then cp "$out/restarts.jsonl" "$dir/run/restarts.jsonl"; fi
   cp "$(rescue_dir "$out")/rescue.fmsr" "$dir/rescue.fmsr"
+  cp "$(rescue_dir "$out")/rescue.env" "$dir/rescue.env"
   bin=$(home_binary "$dir/config.toml")
   # Today's snapshots of the run are gone with the home; the best so far is in pretrained/.
   # keeper.env as recorded (COMMIT, STARTED: the run's), with today's binary.

@@ -136,6 +136,11 @@ done
 mv "$FMSR_LONG_RUNS" "$scratch/home.lost"
 "$keeper" resume > "$scratch/resumed"
 [ "$(grep -c "restored from its rescue point" "$scratch/resumed")" = 2 ] || fail "resume did not restore both runs: $(cat "$scratch/resumed")"
+# It says where the drivers restart, not "epoch 0" (no checkpoint yet; fixed 2026-12-01).
+for run in egg_dense_fmsr_is egg_dense; do
+  epoch=$(sed -n 's/^EPOCH=//p' "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/rescue/rescue.env")
+  grep -q "^$run: started from its rescue point of epoch $epoch " "$scratch/resumed" || fail "resume does not say where $run restarts (epoch $epoch): $(cat "$scratch/resumed")"
+done
 for _ in $(seq 120); do
   "$keeper" status > "$scratch/status"
   grep -q alive "$scratch/status" || break
