@@ -25,6 +25,7 @@ import tomllib
 from pathlib import Path
 
 import long_runs_final
+import long_runs_restarts
 from long_runs_final import (angle_cell, final_angles, newcombe as difference, pct, pts, training_threshold, wilson,
                               within_label)
 
@@ -181,6 +182,8 @@ def load_run(records, home, name):
         "alive": alive(home, name),
         # Restarts from the run's rescue point (`fmsr train --rescue`), as restarts.jsonl records them.
         "restarts": long_runs_final.read_restarts(d / "restarts.jsonl"),
+        # (eval, training) episodes an epoch, for what a restart cost (long_runs_restarts).
+        "per_epoch": long_runs_restarts.episodes_per_epoch(d / "config.toml"),
         # When the keeper found the home gone (`long_runs.sh lost`), else None.
         "lost": keeper_env(d / "lost.env").get("FOUND") if (d / "lost.env").exists() else None,
     }
@@ -384,6 +387,7 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
             if i < len(r["metrics"]) else " | |" for r in runs
         )
         lines.append(f"| {i + 1} | {steps} |{cells}")
+    lines += long_runs_restarts.table(runs, wilson, difference, pct, pts)
     lines += ["", "Snapshots (epoch counted from 0) on the fixed test set (100 episodes at 0.4 rad; success = turned "
               "and held) and on 100 validation episodes (seeds disjoint from the test set's), each with its 95 % "
               "Wilson interval; the difference is Dense+FMSR+IS minus Dense on the test set (Newcombe's interval):", ""]
