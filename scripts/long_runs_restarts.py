@@ -123,8 +123,8 @@ def table(runs, wilson, newcombe, pct, pts, window=WINDOW, span=SPAN):
             f"the difference (which takes the pooled episodes for one binomial sample: they are not), and beside it "
             f"the same difference at every other epoch boundary within {span} epochs whose windows hold no restart "
             "(the spread without a restart, in points to one decimal beside the restart's own; overlapping windows, how "
-            "many in brackets). n/a until the "
-            f"{window} epochs after the restart are trained:", "",
+            "many in brackets). n/a where fewer than "
+            f"{window} epochs lie on either side of the restart (before it, or trained since):", "",
             "| Run | Restart at epoch | Eval before | Eval after | Eval difference | Eval without a restart "
             "| Train before | Train after | Train difference | Train without a restart |",
             "|---|---|---|---|---|---|---|---|---|---|"] + rows
