@@ -154,6 +154,8 @@ for run in egg_dense_fmsr_is egg_dense; do
 done
 "$keeper" record
 grep -q "Restarted at epoch 2 from its rescue point (kept \`online\`" "$scratch/results.md" || fail "the section does not show the restart"
+# And what it cost, n/a here: 10 epochs on either side are not trained (the table since 2026-12-01).
+grep -q "^| Dense+FMSR+IS | 2 | n/a | n/a |" "$scratch/results.md" || fail "the section has no row for the restart in its restart table"
 # What it lost is the buffer's content, not every episode of the run (fixed 2026-11-29).
 grep -q "lost the replay buffer ([0-9]* episodes of the [0-9]* stored over the run)" "$scratch/results.md" || fail "the section does not count the buffer a restart lost"
 # A restored run's binary is the restore's, said without the env file's quotes (fixed 2026-11-29).
