@@ -387,7 +387,7 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
             if i < len(r["metrics"]) else " | |" for r in runs
         )
         lines.append(f"| {i + 1} | {steps} |{cells}")
-    lines += long_runs_restarts.table(runs, wilson, difference, pct, pts)
+    lines += long_runs_restarts.table(runs)
     lines += ["", "Snapshots (epoch counted from 0) on the fixed test set (100 episodes at 0.4 rad; success = turned "
               "and held) and on 100 validation episodes (seeds disjoint from the test set's), each with its 95 % "
               "Wilson interval; the difference is Dense+FMSR+IS minus Dense on the test set (Newcombe's interval):", ""]

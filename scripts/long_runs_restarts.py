@@ -25,6 +25,8 @@ it trains.
 
 import tomllib
 
+from long_runs_final import newcombe, pct, pts, wilson
+
 WINDOW = 10
 SPAN = 50
 
@@ -65,18 +67,18 @@ def window_difference(counts, n, boundary, window=WINDOW):
     return after[0] / after[1] - before[0] / before[1]
 
 
-def restart_cost(counts, n, epoch, restarts, wilson, newcombe, window=WINDOW, span=SPAN):
+def restart_cost(counts, n, epoch, restarts, window=WINDOW, span=SPAN):
     """The restart at `epoch`'s before and after (Wilson intervals), their difference (Newcombe's interval) and the
     reference spread (min, max, boundaries) of the other boundaries within `span` epochs whose windows hold no
-    restart of `restarts` (their epochs); None until the windows on both sides are trained."""
+    restart of `restarts` (their epochs) or `epoch`; None until the windows on both sides are trained."""
     before = pooled(counts, n, epoch - window, epoch)
     after = pooled(counts, n, epoch, epoch + window)
     if before is None or after is None:
         return None
     a, b = wilson(*after), wilson(*before)
-    reference = []
+    reference, held = [], set(restarts) | {epoch}
     for k in range(epoch - span, epoch + span + 1):
-        if k == epoch or any(k - window < r < k + window for r in restarts):
+        if any(k - window < r < k + window for r in held):
             continue
         d = window_difference(counts, n, k, window)
         if d is not None:
@@ -94,7 +96,7 @@ def verdict(cost):
     return "below the spread" if d < s[0] else "above the spread" if d > s[1] else "within the spread"
 
 
-def table(runs, wilson, newcombe, pct, pts, window=WINDOW, span=SPAN):
+def table(runs, window=WINDOW, span=SPAN):
     """The lines of the table of every restart of `runs` (each with `label`, `metrics`, `restarts`, `per_epoch`:
     episodes_per_epoch's pair or None), eval and training success; [] when no run restarted."""
     rows = []
@@ -105,7 +107,7 @@ def table(runs, wilson, newcombe, pct, pts, window=WINDOW, span=SPAN):
             cells = []
             for column, n in zip(("success_rate", "train_success_rate"), r.get("per_epoch") or (None, None)):
                 cost = None if n is None else restart_cost(successes(r["metrics"], column, n), n, e, epochs,
-                                                           wilson, newcombe, window, span)
+                                                           window, span)
                 if cost is None:
                     cells.append("n/a | n/a | n/a | n/a")
                     continue

@@ -19,7 +19,6 @@ from pathlib import Path
 root = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(root / "scripts"))
 import long_runs_restarts as lr  # noqa: E402
-from long_runs_final import newcombe, pct, pts, wilson  # noqa: E402
 
 
 def fail(msg):
@@ -43,7 +42,7 @@ if c != {0: 17}:
 noise = [0.02 * ((i * 7) % 3 - 1) for i in range(120)]
 flat = [0.5 + n for n in noise]
 fallen = [r - 0.2 if 60 <= i < 70 else r for i, r in enumerate(flat)]
-cost = lr.restart_cost(lr.successes(metrics(fallen), "success_rate", 50), 50, 60, [60], wilson, newcombe)
+cost = lr.restart_cost(lr.successes(metrics(fallen), "success_rate", 50), 50, 60, [60])
 if cost is None or abs(cost["difference"][0] + 0.2) > 0.01:
     fail(f"a fall of 20 points after the restart should read -0.20: {cost}")
 if lr.verdict(cost) != "below the spread":
@@ -52,7 +51,7 @@ if lr.verdict(cost) != "below the spread":
 # lowest must come from them, not from the restart's own boundary: it is above -0.2.
 if not cost["spread"][0] > -0.2 + 1e-9:
     fail(f"the restart's own boundary must not be in its reference: {cost['spread']}")
-same = lr.restart_cost(lr.successes(metrics(flat), "success_rate", 50), 50, 60, [60], wilson, newcombe)
+same = lr.restart_cost(lr.successes(metrics(flat), "success_rate", 50), 50, 60, [60])
 if same is None or lr.verdict(same) != "within the spread":
     fail(f"a restart after which nothing changed should be within the spread: {same}")
 # 101 boundaries in 10..110 are within 50 of 60; the restart's own and those whose windows hold it (51-69) are out.
@@ -60,21 +59,21 @@ if same["spread"][2] != 101 - 19:
     fail(f"the reference should count the 82 boundaries without the restart in their windows: {same['spread']}")
 
 # Another restart at 90 takes the boundaries 81-99 out of the reference of the one at 60.
-two = lr.restart_cost(lr.successes(metrics(flat), "success_rate", 50), 50, 60, [60, 90], wilson, newcombe)
+two = lr.restart_cost(lr.successes(metrics(flat), "success_rate", 50), 50, 60, [60, 90])
 if two["spread"][2] != 101 - 19 - 19:
     fail(f"boundaries whose windows hold the restart at 90 should be no reference for the one at 60: {two['spread']}")
 
 # Without its ten epochs on both sides, no number.
 short = lr.successes(metrics(flat[:65]), "success_rate", 50)
-if lr.restart_cost(short, 50, 60, [60], wilson, newcombe) is not None:
+if lr.restart_cost(short, 50, 60, [60]) is not None:
     fail("a restart with 5 of its 10 epochs after it trained should give no number")
-if lr.restart_cost(lr.successes(metrics(flat), "success_rate", 50), 50, 4, [4], wilson, newcombe) is not None:
+if lr.restart_cost(lr.successes(metrics(flat), "success_rate", 50), 50, 4, [4]) is not None:
     fail("a restart at epoch 4 has no 10 epochs before it and should give no number")
 
 # The table: a row per restart, eval and training each measured; n/a where the windows are not trained.
 run = {"label": "Dense", "metrics": metrics(fallen, flat), "per_epoch": (50, 200),
        "restarts": [{"restart": {"epoch": 60}}, {"restart": {"epoch": 115}}]}
-lines = lr.table([run], wilson, newcombe, pct, pts)
+lines = lr.table([run])
 rows = [line for line in lines if line.startswith("| Dense |")]
 if len(rows) != 2:
     fail(f"one row per restart expected: {lines}")
@@ -83,6 +82,6 @@ if cells[1] != "60" or "-20 pts" not in cells[4] or "below the spread" not in ce
     fail(f"the restart at 60 should fall 20 points in eval (below the spread) and not in training: {cells}")
 if "n/a" not in rows[1]:
     fail(f"the restart at 115 has 5 epochs after it and should read n/a: {rows[1]}")
-if lr.table([{**run, "restarts": []}], wilson, newcombe, pct, pts) != []:
+if lr.table([{**run, "restarts": []}]) != []:
     fail("runs that never restarted should give no table")
 print("ok: the restart table sets the 10 epochs after each restart against the 10 before and the spread without one")
