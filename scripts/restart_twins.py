@@ -74,6 +74,16 @@ def arm_counts(run, start):
     return pooled[0], pooled[1], len(epochs), test
 
 
+def check_split(run, start):
+    """A restarted arm's last restart (its restarts.jsonl) must be at `start`: else EPOCH0 is not the epoch the
+    twins split at (a source whose metrics.csv lagged its checkpoint), and the pooled epochs would be wrong."""
+    path = run / "restarts.jsonl"
+    lines = [x for x in path.read_text().splitlines() if x.strip()] if path.exists() else []
+    epoch = json.loads(lines[-1]).get("restart", {}).get("epoch") if lines else None
+    if epoch != start:
+        raise ValueError(f"{path}: the arm restarted at epoch {epoch}, not at the twins' EPOCH0 {start}")
+
+
 def cell(a, ref):
     """An arm's rate (Wilson) and, beside the reference's, its difference (Newcombe)."""
     if a is None or a[1] == 0:
@@ -113,8 +123,11 @@ def main():
     args = p.parse_args()
     try:
         start = epoch0(args.out)
-        arms = {d.name: arm_counts(d, start) for d in sorted(args.out.iterdir())
-                if d.is_dir() and d.name != SOURCE and (d / "metrics.csv").exists()}
+        dirs = [d for d in sorted(args.out.iterdir()) if d.is_dir() and d.name != SOURCE and (d / "metrics.csv").exists()]
+        for d in dirs:
+            if d.name != REFERENCE:
+                check_split(d, start)
+        arms = {d.name: arm_counts(d, start) for d in dirs}
         print("\n".join(table(arms, start)))
     except (OSError, ValueError, KeyError) as e:
         sys.exit(f"restart_twins: {e}")

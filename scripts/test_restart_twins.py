@@ -9,7 +9,8 @@ history before it, which every twin shares, does not); rates are read as counts
 of the config's episodes an epoch; a restarted arm that fell by 30 points has
 that difference, the reference none; arms that trained different epochs, a
 missing reference, a gap in the epochs and a missing column are refused by
-name, not compared; the checkpoint's copy (OUT/source) is not an arm. Runs in
+name, not compared, as is a restarted arm that split elsewhere than EPOCH0;
+the checkpoint's copy (OUT/source) is not an arm. Runs in
 a second (CI's `restart-twins` stage).
 """
 
@@ -65,6 +66,8 @@ with tempfile.TemporaryDirectory() as tmp:
     arm(out, "uninterrupted", [0, 0, 0, 0.5, 0.5], [0, 0, 0, 0.6, 0.6], test=(80, 100))
     arm(out, "online", [1, 1, 1, 0.5, 0.5], [1, 1, 1, 0.3, 0.3], test=(70, 100))
     arm(out, "source", [0, 0, 0], [0, 0, 0])
+    # The restarted arm's restart at the split, after one the source had at epoch 1.
+    (out / "online" / "restarts.jsonl").write_text('{"restart": {"epoch": 1}}\n{"restart": {"epoch": 3}}\n')
     if rt.epoch0(out) != 3:
         fail(f"EPOCH0 of twins.env is 3, read {rt.epoch0(out)}")
     ref = rt.arm_counts(out / "uninterrupted", 3)
@@ -98,6 +101,8 @@ with tempfile.TemporaryDirectory() as tmp:
     refused(lambda: rt.arm_counts(gap, 3), "not consecutive", "epochs 3 and 5 pooled as consecutive")
     (gap / "metrics.csv").write_text("epoch,success_rate,train_success_rate\n3,0.5,0.5\n4,0.5,\n")
     refused(lambda: rt.arm_counts(gap, 3), "train_success_rate", "an epoch without its training success")
+    # A restarted arm that split elsewhere than EPOCH0 (a source whose metrics.csv lagged its checkpoint).
+    refused(lambda: rt.check_split(out / "online", 2), "not at the twins' EPOCH0 2", "an arm restarted at 3, EPOCH0 2")
     (out / "twins.env").write_text("RUN=/nowhere\n")
     run = subprocess.run([sys.executable, str(root / "scripts" / "restart_twins.py"), str(out)],
                          capture_output=True, text=True)
