@@ -11,8 +11,8 @@ script compares them:
 
     restart_twins.py OUT
         prints the table of OUT/<arm>/ (each a run directory, beside
-        OUT/twins.env: EPOCH0, the epochs trained when the twins split, and
-        OUT/source/, the checkpoint they split from)
+        OUT/twins.env: EPOCH0, the epochs trained when the twins split; a
+        directory without metrics.csv, as OUT/split/, is no arm)
 
 For each arm, over the epochs from EPOCH0 on: the epochs' deterministic eval
 episodes (`success_rate`, `trainer.eval_episodes` an epoch, at the training
@@ -37,8 +37,6 @@ from long_runs_final import newcombe, pct, pts, wilson
 from long_runs_restarts import episodes_per_epoch, successes
 
 REFERENCE = "uninterrupted"
-# OUT/source: the copy of the checkpoint every arm starts from, not an arm.
-SOURCE = "source"
 
 
 def epoch0(out):
@@ -123,7 +121,7 @@ def main():
     args = p.parse_args()
     try:
         start = epoch0(args.out)
-        dirs = [d for d in sorted(args.out.iterdir()) if d.is_dir() and d.name != SOURCE and (d / "metrics.csv").exists()]
+        dirs = [d for d in sorted(args.out.iterdir()) if d.is_dir() and (d / "metrics.csv").exists()]
         for d in dirs:
             if d.name != REFERENCE:
                 check_split(d, start)

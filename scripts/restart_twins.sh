@@ -8,10 +8,13 @@
 # RUN     a run directory with a checkpoint, not training: its writer lock is
 #         taken while it is copied (a long run's: once it has ended, e.g.
 #         ~/.local/share/fmsr/long-runs/egg_dense_fmsr_is/run after `finish`).
-# OUT     the twins' directory (the first call writes OUT/twins.env: EPOCH0,
-#         the checkpoint's epochs, RUN, the binary); OUT/<arm>/ is each arm's run.
+# OUT     the twins' directory. The first call copies RUN into
+#         OUT/uninterrupted, writes a rescue point of every KEEP from it into
+#         OUT/split/ (with the run's config.toml, provenance.json and
+#         restarts.jsonl), then OUT/twins.env (EPOCH0, the checkpoint's
+#         epochs, RUN, the binary); OUT/<arm>/ is each arm's run.
 # EPOCHS  the epoch every arm trains to (EPOCH0 + 10 gives the restart table's window).
-# ARM     `uninterrupted` (a copy of RUN's checkpoint and replay log, resumed),
+# ARM     `uninterrupted` (the copy of RUN's checkpoint and replay log, resumed),
 #         or KEEP or KEEP:REFILL: restarted from `fmsr rescue RUN --keep KEEP`
 #         (online, half, targets, full) with `fmsr train --rescue --refill REFILL`
 #         (exploring episodes into the empty buffer; default one epoch's).
@@ -24,7 +27,9 @@
 # it trained on), and the table goes to OUT/twins.md. A second call with the
 # same OUT goes on: an arm at EPOCHS is left alone, one cut off resumes from
 # its own checkpoint (a restart arm whose first epoch never ended restarts
-# from its rescue point again), an evaluation of the arm's last checkpoint is kept.
+# from its rescue point again), an arm added by a later call restarts from the
+# split's rescue point as the first call's did, an evaluation of the arm's
+# last checkpoint is kept.
 # Binary: $FMSR_BIN, else target/release/fmsr (build with `--features mujoco`
 # for a MuJoCo run; target/mujoco/lib is put on LD_LIBRARY_PATH).
 set -euo pipefail
@@ -58,12 +63,22 @@ if [ ! -f "$out/twins.env" ]; then
   flock -n 9 || die "$run is training ($(cat "$run/.lock")): twins start from a run that has stopped"
   e0=$(trained "$run")
   [ "$epochs" -gt "$e0" ] || die "EPOCHS ($epochs) must be past the checkpoint's $e0 epochs"
-  rm -rf "$out/source.tmp"
-  mkdir -p "$out/source.tmp"
-  cp -a "$run/checkpoint.bin" "$run/checkpoint.replay" "$run/config.toml" "$run/metrics.csv" "$run/metrics.jsonl" "$out/source.tmp/"
-  for f in provenance.json restarts.jsonl; do [ ! -f "$run/$f" ] || cp -a "$run/$f" "$out/source.tmp/"; done
+  # Nothing trained before twins.env: a call cut off here starts the split again.
+  rm -rf "$out/uninterrupted" "$out/uninterrupted.tmp" "$out/split" "$out/split.tmp"
+  mkdir -p "$out/uninterrupted.tmp" "$out/split.tmp"
+  cp -a "$run/checkpoint.bin" "$run/checkpoint.replay" "$run/config.toml" "$run/metrics.csv" "$run/metrics.jsonl" \
+    "$out/uninterrupted.tmp/"
+  for f in provenance.json restarts.jsonl; do
+    [ ! -f "$run/$f" ] || { cp -a "$run/$f" "$out/uninterrupted.tmp/" && cp -a "$run/$f" "$out/split.tmp/"; }
+  done
   exec 9<&-
-  mv "$out/source.tmp" "$out/source"
+  cp "$run/config.toml" "$out/split.tmp/"
+  # Every KEEP's rescue point at the split, before the copy trains on.
+  for keep in online half targets full; do
+    nice -n 10 "$fmsr" rescue "$out/uninterrupted.tmp" --keep "$keep" --out "$out/split.tmp/rescue-$keep.fmsr" > /dev/null
+  done
+  mv "$out/split.tmp" "$out/split"
+  mv "$out/uninterrupted.tmp" "$out/uninterrupted"
   {
     echo "EPOCH0=$e0"
     echo "RUN=$(cd "$run" && pwd)"
@@ -84,25 +99,15 @@ train_arm() {
   local arm=$1 dir keep refill
   dir=$(arm_dir "$arm")
   if [ "$(trained "$dir")" -ge "$epochs" ]; then return 0; fi
-  if [ -f "$dir/checkpoint.bin" ] && { [ "$arm" = uninterrupted ] || [ "$(trained "$dir")" -gt "$e0" ]; }; then
-    nice -n 10 "$fmsr" train --out "$dir" --resume --epochs "$epochs" --quiet
-  elif [ "$arm" = uninterrupted ]; then
-    rm -rf "$dir" "$dir.tmp"
-    cp -a "$out/source" "$dir.tmp"
-    mv "$dir.tmp" "$dir"
+  if [ "$arm" = uninterrupted ] || { [ -f "$dir/checkpoint.bin" ] && [ "$(trained "$dir")" -gt "$e0" ]; }; then
     nice -n 10 "$fmsr" train --out "$dir" --resume --epochs "$epochs" --quiet
   else
     keep=${arm%%:*} refill=
     [ "$keep" = "$arm" ] || refill=${arm#*:}
-    [ -f "$out/rescue-$keep.fmsr" ] || {
-      nice -n 10 "$fmsr" rescue "$out/source" --keep "$keep" --out "$out/rescue-$keep.fmsr.tmp" > /dev/null
-      mv "$out/rescue-$keep.fmsr.tmp" "$out/rescue-$keep.fmsr"
-    }
     rm -rf "$dir"
     mkdir -p "$dir"
-    cp "$out/source/config.toml" "$dir/"
-    for f in provenance.json restarts.jsonl; do [ ! -f "$out/source/$f" ] || cp "$out/source/$f" "$dir/"; done
-    nice -n 10 "$fmsr" train --out "$dir" --rescue "$out/rescue-$keep.fmsr" ${refill:+--refill "$refill"} \
+    for f in config.toml provenance.json restarts.jsonl; do [ ! -f "$out/split/$f" ] || cp "$out/split/$f" "$dir/"; done
+    nice -n 10 "$fmsr" train --out "$dir" --rescue "$out/split/rescue-$keep.fmsr" ${refill:+--refill "$refill"} \
       --epochs "$epochs" --quiet
   fi
 }

@@ -9,8 +9,8 @@ history before it, which every twin shares, does not); rates are read as counts
 of the config's episodes an epoch; a restarted arm that fell by 30 points has
 that difference, the reference none; arms that trained different epochs, a
 missing reference, a gap in the epochs and a missing column are refused by
-name, not compared, as is a restarted arm that split elsewhere than EPOCH0;
-the checkpoint's copy (OUT/source) is not an arm. Runs in
+name, not compared, as is a restarted arm that split elsewhere than EPOCH0
+(on the command line too); OUT/split (rescue points, no metrics) is no arm. Runs in
 a second (CI's `restart-twins` stage).
 """
 
@@ -65,7 +65,8 @@ with tempfile.TemporaryDirectory() as tmp:
     # restart's training success is 30 points below the reference's.
     arm(out, "uninterrupted", [0, 0, 0, 0.5, 0.5], [0, 0, 0, 0.6, 0.6], test=(80, 100))
     arm(out, "online", [1, 1, 1, 0.5, 0.5], [1, 1, 1, 0.3, 0.3], test=(70, 100))
-    arm(out, "source", [0, 0, 0], [0, 0, 0])
+    (out / "split").mkdir()
+    (out / "split" / "config.toml").write_text(CONFIG)
     # The restarted arm's restart at the split, after one the source had at epoch 1.
     (out / "online" / "restarts.jsonl").write_text('{"restart": {"epoch": 1}}\n{"restart": {"epoch": 3}}\n')
     if rt.epoch0(out) != 3:
@@ -84,11 +85,17 @@ with tempfile.TemporaryDirectory() as tmp:
     reference = next(line for line in lines if line.startswith("| uninterrupted |"))
     if reference.count("reference") != 3:
         fail(f"the reference is compared with nothing: {reference}")
-    # The command line: OUT/source is the checkpoint, not an arm; the output is the table.
+    # The command line: OUT/split is no arm; the output is the table.
     run = subprocess.run([sys.executable, str(root / "scripts" / "restart_twins.py"), str(out)],
                          capture_output=True, text=True)
-    if run.returncode != 0 or "| source |" in run.stdout or "| online |" not in run.stdout:
-        fail(f"restart_twins.py OUT: the arms uninterrupted and online, not source: {run.stdout}{run.stderr}")
+    if run.returncode != 0 or "| split |" in run.stdout or "| online |" not in run.stdout:
+        fail(f"restart_twins.py OUT: the arms uninterrupted and online, not split: {run.stdout}{run.stderr}")
+    (out / "online" / "restarts.jsonl").write_text('{"restart": {"epoch": 4}}\n')
+    run = subprocess.run([sys.executable, str(root / "scripts" / "restart_twins.py"), str(out)],
+                         capture_output=True, text=True)
+    if run.returncode == 0 or "restarted at epoch 4" not in run.stderr:
+        fail(f"restart_twins.py OUT compared an arm restarted at 4 with twins split at 3: {run.stdout}{run.stderr}")
+    (out / "online" / "restarts.jsonl").write_text('{"restart": {"epoch": 1}}\n{"restart": {"epoch": 3}}\n')
 
     # Refused by name, not compared.
     short = arm(out, "half", [0.5], [0.5], first=3)

@@ -7,8 +7,8 @@
 # arm must restart from a rescue point of its KEEP with its REFILL, recorded
 # in its restarts.jsonl; a source that is training (its lock held) and bad
 # arms are refused before anything is copied; a second call trains nothing;
-# a call to a later EPOCHS goes on from each arm's checkpoint and evaluates
-# the new policies again.
+# a call to a later EPOCHS goes on from each arm's checkpoint, restarts an
+# arm it adds at the split, and evaluates the new policies again.
 #
 #   scripts/test_restart_twins.sh      # under a minute with target/release/fmsr built (or FMSR_BIN)
 #
@@ -71,14 +71,20 @@ grep -q "arm \`bogus\`" err || fail "the bad arm is not named: $(cat err)"
 "$twins" run out 4 online 2> err && fail "twins without the uninterrupted reference were trained"
 grep -q "no \`uninterrupted\` arm" err || fail "the missing reference is not named: $(cat err)"
 "$twins" run out 2 uninterrupted online 2> err && fail "twins to the checkpoint's own epoch were trained"
-[ ! -e out/source ] || fail "a refused call copied the source"
+[ ! -e out/uninterrupted ] && [ ! -e out/split ] || fail "a refused call copied the source"
 
-# To epoch 3 first, then on to 4: each arm goes on from its own checkpoint.
-FMSR_TWINS_JOBS=2 "$twins" run out 3 uninterrupted online full:4 > /dev/null
+# To epoch 3 first, then on to 4: each arm goes on from its own checkpoint,
+# and full:4, added by the second call, restarts from the split all the same.
+FMSR_TWINS_JOBS=2 "$twins" run out 3 uninterrupted online > /dev/null
 FMSR_TWINS_JOBS=2 "$twins" run out 4 uninterrupted online full:4 > table
 grep -q "^EPOCH0=2$" out/twins.env || fail "twins.env: $(cat out/twins.env)"
 [ "$(grep -c '^| \(uninterrupted\|online\|full-refill4\) |' table)" = 3 ] || fail "the table has not its three arms: $(cat table)"
 cmp -s table out/twins.md || fail "the printed table is not OUT/twins.md"
+
+# The split holds the rescue points and the run's small files, no copy of the run.
+[ "$(ls out/split | tr '\n' ' ')" = "config.toml provenance.json rescue-full.fmsr rescue-half.fmsr rescue-online.fmsr rescue-targets.fmsr " ] \
+  || fail "OUT/split: $(ls out/split)"
+cmp -s run/provenance.json out/uninterrupted/provenance.json || fail "the uninterrupted twin lost the run's provenance.json"
 
 # The uninterrupted twin is the run itself going on: every column but the clock's.
 python3 - reference/metrics.csv out/uninterrupted/metrics.csv << 'EOF' || fail "the uninterrupted twin is not the run resumed"
