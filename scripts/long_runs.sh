@@ -8,6 +8,7 @@
 #   scripts/long_runs.sh status            epochs, env steps, success, s/epoch, sessions left, alive, next snapshot
 #   scripts/long_runs.sh record            evaluate new snapshots, copy small files into docs/
 #   scripts/long_runs.sh finish            once every run has ended: issue 37's item 4 (below); ~30 min for the pair, run it with nohup
+#   scripts/long_runs.sh finish RUN...     the final evaluations and policies of runs that ended, ahead of the others (no report)
 #   scripts/long_runs.sh lost              the home is gone: mark the recorded runs lost, rewrite the section
 #
 # The home is `$FMSR_LONG_RUNS`, else `$HOME/.local/share/fmsr/long-runs`:
@@ -309,9 +310,11 @@ home_binary() {
 # there), not in its records.
 rescue_dir() { echo "$pretrained/$(basename "$1")_paper/rescue"; }
 
-# Whether `finish` evaluated recorded run $1 (its records' directory): the run
-# has ended, and neither needs nor gets a rescue point or a best policy so far.
-finished_out() { [ -f "$1/final/test-rapier.json" ]; }
+# Whether `finish` ended recorded run $1 (its records' directory): its final
+# policies are in pretrained/, and it neither needs nor gets a rescue point or a
+# best policy so far. finished.env is written by finish_run's last step, so a
+# `finish` cut off midway leaves the rescue point counted (and restorable).
+finished_out() { [ -f "$1/final/finished.env" ]; }
 
 # Restores recorded run $1 (its records' directory) into the home from its
 # rescue point, with this work tree's build; the driver restarts from it.
@@ -345,7 +348,7 @@ recorded() { for d in "$records"/*/; do if [ -f "$d/keeper.env" ]; then echo "${
 unaccounted() {
   local out
   for out in $(recorded); do
-    [ -f "$home/$(basename "$out")/keeper.env" ] || [ -f "$out/lost.env" ] || basename "$out"
+    [ -f "$home/$(basename "$out")/keeper.env" ] || [ -f "$out/lost.env" ] || finished_out "$out" || basename "$out"
   done
 }
 
@@ -599,24 +602,49 @@ finish_run() {
   # The run has ended: its rescue point and best policy so far are superseded
   # by policy.fmsr and best_on_validation.fmsr (history keeps them).
   rm -rf "$pre/rescue" "$pre/best_so_far.fmsr" "$pre/best_so_far.env"
+  printf 'FINISHED=%s\nCOMMIT=%s\n' "$(date -u +%FT%TZ)" "$(git rev-parse --short HEAD)" > "$out/finished.env.tmp"
+  mv "$out/finished.env.tmp" "$out/finished.env"
 }
 
+# `finish` with no names: every run, then the report and the comparison. With
+# names: those runs alone (each must have ended), so a run that ends first is
+# finished on the core it frees while the other trains; the report waits for
+# the bare `finish`, which then counts a run finished earlier even when the
+# home has lost it since (its policies are in pretrained/).
 finish() {
   [ -d "$home" ] || die "no long-run home at $home"
   records_writer
   cd "$repo"
-  local dir waiting=() policies=()
-  for dir in $(runs); do
+  local dir out name waiting=() chosen=() policies=()
+  if [ $# -gt 0 ]; then
+    for name in "$@"; do
+      [ -f "$home/$name/keeper.env" ] || die "no run $name in $home (runs: $(runs | xargs -r -n 1 basename | tr '\n' ' '))"
+      chosen+=("$home/$name")
+    done
+  else
+    for dir in $(runs); do chosen+=("$dir"); done
+    for out in $(recorded); do
+      [ -f "$home/$(basename "$out")/keeper.env" ] || finished_out "$out" \
+        || waiting+=("$(basename "$out") (recorded, neither in the home nor finished: \`$0 resume\` restores it)")
+    done
+  fi
+  for dir in "${chosen[@]}"; do
     finished "$dir" || waiting+=("$(basename "$dir") ($(epochs_done "$dir") of $(planned "$dir") epochs)")
   done
-  [ ${#waiting[@]} -eq 0 ] || die "not every run has ended: ${waiting[*]}; finish waits for all"
+  if [ ${#waiting[@]} -gt 0 ]; then
+    [ $# -eq 0 ] || die "not every run named has ended: ${waiting[*]}"
+    die "not every run has ended: ${waiting[*]}; finish waits for all (\`$0 finish RUN...\` finishes those that have)"
+  fi
   # One build for every evaluation: rapier and MuJoCo alike.
   work_tree_binary
   evaluate_snapshots
-  for dir in $(runs); do
-    finish_run "$dir"
-    policies+=("$pretrained/$(basename "$dir")_paper")
-  done
+  for dir in "${chosen[@]}"; do finish_run "$dir"; done
+  if [ $# -gt 0 ]; then
+    write_section
+    for dir in "${chosen[@]}"; do du -sh "$pretrained/$(basename "$dir")_paper"; done
+    return
+  fi
+  for out in $(recorded); do policies+=("$pretrained/$(basename "$out")_paper"); done
   nice -n 5 "$fmsr" report "${policies[@]}" --out "$records/report"
   write_section
   # What the policies add to the tracked tree (kept under 56 MiB, issue 53).
@@ -640,7 +668,10 @@ lost() {
   done
   for out in $(recorded); do
     name=$(basename "$out")
-    if [ -f "$out/lost.env" ]; then
+    # A run `finish` ended needs no home: its policies are in pretrained/.
+    if finished_out "$out"; then
+      echo "$name: finished, not lost (its final policies are in $pretrained/${name}_paper)"
+    elif [ -f "$out/lost.env" ]; then
       echo "$name: marked lost before ($(cat "$out/lost.env"))"
     else
       echo "FOUND=$now" > "$out/lost.env.tmp" && mv "$out/lost.env.tmp" "$out/lost.env"
@@ -655,8 +686,8 @@ case "${1:-}" in
   resume) resume; exit ;;
   status) status; exit ;;
   record) record; exit ;;
-  finish) finish; exit ;;
+  finish) shift; finish "$@"; exit ;;
   lost) lost; exit ;;
   _drive) drive "$2"; exit ;;
-  *) die "usage: $0 start CONFIG... | resume | status | record | finish | lost" ;;
+  *) die "usage: $0 start CONFIG... | resume | status | record | finish [RUN...] | lost" ;;
 esac

@@ -5,7 +5,8 @@
 # a driver must wait for a lock held an instant (and train a third epoch),
 # `lost` must mark them only once their home is gone, `resume` must restore
 # them from their rescue points when it is,
-# `finish` must refuse while a run is unfinished and then write every final
+# `finish` must refuse while a run is unfinished, `finish RUN` must end one
+# run ahead of the other, and the bare `finish` then write every final
 # evaluation (each on the engine its name says), policy, README, report and the
 # section with the paper's rows, and drop the rescue points of ended runs.
 # Both runs train on MuJoCo, as the paper-budget pair does: `fmsr eval` without
@@ -169,6 +170,38 @@ sleep 0.5
 "$keeper" record 2> "$scratch/refused" && fail "record ran while another writer held the records"
 grep -q "is writing the records" "$scratch/refused" || fail "record refused for another reason: $(cat "$scratch/refused")"
 wait
+
+# A run finished ahead of the other (issue 53: Dense ends first, and its core is
+# free while Dense+FMSR+IS trains on). `finish RUN` refuses a name the home
+# lacks and a run that has not ended, then writes that run's final evaluations
+# and policies alone, with no report; the bare `finish` later counts it, even
+# after the home has lost it.
+records=$FMSR_LONG_RUNS_RECORDS pre=$FMSR_LONG_RUNS_PRETRAINED
+"$keeper" finish egg_nope 2> "$scratch/refused" && fail "finish ran for a run the home lacks"
+grep -q "no run egg_nope in " "$scratch/refused" || fail "finish egg_nope refused for another reason: $(cat "$scratch/refused")"
+sed -i 's/^EPOCHS=2$/EPOCHS=3/' "$FMSR_LONG_RUNS/egg_dense_fmsr_is/keeper.env"
+"$keeper" finish egg_dense_fmsr_is 2> "$scratch/refused" && fail "finish ran for a run that has not ended"
+grep -q "not every run named has ended: egg_dense_fmsr_is (2 of 3 epochs)" "$scratch/refused" || fail "finish egg_dense_fmsr_is refused for another reason: $(cat "$scratch/refused")"
+"$keeper" finish 2> "$scratch/refused" && fail "finish ran for both with one not ended"
+grep -q "finish RUN\.\.\.\` finishes those that have" "$scratch/refused" || fail "finish does not point at finish RUN: $(cat "$scratch/refused")"
+sed -i 's/^EPOCHS=3$/EPOCHS=2/' "$FMSR_LONG_RUNS/egg_dense_fmsr_is/keeper.env"
+"$keeper" finish egg_dense
+grep -q '^FINISHED=' "$records/egg_dense/final/finished.env" || fail "finish egg_dense did not mark it finished"
+[ -s "$pre/egg_dense_paper/policy.fmsr" ] || fail "finish egg_dense wrote no final policy"
+[ ! -e "$pre/egg_dense_paper/rescue" ] || fail "finish egg_dense kept its rescue point"
+[ ! -e "$records/egg_dense_fmsr_is/final" ] || fail "finish egg_dense evaluated egg_dense_fmsr_is"
+[ -s "$pre/egg_dense_fmsr_is_paper/rescue/rescue.fmsr" ] || fail "finish egg_dense dropped egg_dense_fmsr_is's rescue point"
+[ ! -e "$records/report" ] || fail "finish egg_dense wrote the report"
+grep -q "The paper's orderings" "$scratch/results.md" && fail "the section compares with the paper before both ended"
+# The home loses the finished run: resume neither restores it nor calls it
+# missing, `lost` does not mark it, record leaves it as it is.
+mv "$FMSR_LONG_RUNS/egg_dense" "$scratch/egg_dense.finished"
+"$keeper" resume > "$scratch/resumed"
+grep -q "egg_dense: restored" "$scratch/resumed" && fail "resume restored a finished run: $(cat "$scratch/resumed")"
+grep -q "not in the home" "$scratch/resumed" && fail "resume calls a finished run missing: $(cat "$scratch/resumed")"
+"$keeper" record
+[ ! -e "$pre/egg_dense_paper/rescue" ] || fail "record wrote a rescue point of a finished run"
+[ ! -e "$records/egg_dense/lost.env" ] || fail "record marked a finished run lost"
 "$keeper" finish
 for run in egg_dense_fmsr_is egg_dense; do
   for f in test-rapier validation-rapier test-mujoco validation-mujoco trials-rapier trials-mujoco; do
