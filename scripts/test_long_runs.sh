@@ -229,6 +229,8 @@ done
 grep -q "Restarted from its rescue point at epoch 2 " "$FMSR_LONG_RUNS_PRETRAINED/egg_dense_fmsr_is_paper/README.md" || fail "the README does not say where the run was restored"
 grep -q "seed 0, trained on MuJoCo;" "$scratch/results.md" || fail "the section does not say the runs trained on MuJoCo"
 [ -s "$FMSR_LONG_RUNS_RECORDS/report/summary.md" ] || fail "no report"
+# Over both policies, egg_dense's too, finished earlier and gone from the home.
+grep -q "^2 run(s) over 1 task(s)" "$FMSR_LONG_RUNS_RECORDS/report/summary.md" || fail "the report is not over both runs: $(head -n 3 "$FMSR_LONG_RUNS_RECORDS/report/summary.md")"
 # A `record` after `finish` (the next session's last step) brings back no rescue point.
 "$keeper" record
 for run in egg_dense_fmsr_is egg_dense; do
