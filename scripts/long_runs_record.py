@@ -421,8 +421,14 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
         lines += ["", "Not run: the final evaluation of issue 37, item 4 (500 episodes, MuJoCo, `fmsr report`, the paper's "
                   "rows): the runs were lost, with their policies, before 400 epochs."]
     else:
+        # Runs ended ahead of the other (`finish RUN`): their part is written, the comparison waits.
+        ahead = [f"{r['label']} (in [`{records_rel}/{r['dir'].name}/final/`]({records_rel}/{r['dir'].name}/final/) "
+                 f"and [`{pretrained_rel}/{r['dir'].name}_paper/`]({pretrained_rel}/{r['dir'].name}_paper/))"
+                 for r in runs if (r["dir"] / "final" / "finished.env").is_file()]
         lines += ["", "Not yet: the final evaluation of issue 37, item 4 (500 episodes, MuJoCo, `fmsr report`, the paper's rows), "
-                  "which waits for both runs to reach 400 epochs (`scripts/long_runs.sh finish`)."]
+                  "which waits for both runs to reach 400 epochs (`scripts/long_runs.sh finish`)"
+                  + (f"; the final evaluations and policies of the runs that have ended are written: {', '.join(ahead)}."
+                     if ahead else ".")]
     return "\n".join(lines) + "\n"
 
 

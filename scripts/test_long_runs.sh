@@ -193,6 +193,7 @@ grep -q '^FINISHED=' "$records/egg_dense/final/finished.env" || fail "finish egg
 [ -s "$pre/egg_dense_fmsr_is_paper/rescue/rescue.fmsr" ] || fail "finish egg_dense dropped egg_dense_fmsr_is's rescue point"
 [ ! -e "$records/report" ] || fail "finish egg_dense wrote the report"
 grep -q '### At the end: against the paper' "$scratch/results.md" && fail "the section compares the final policies before both ended"
+grep -q "the final evaluations and policies of the runs that have ended are written: Dense (in " "$scratch/results.md" || fail "the section does not say Dense's final evaluations are written"
 # The home loses the finished run: resume neither restores it nor calls it
 # missing, `lost` does not mark it, record leaves it as it is.
 mv "$FMSR_LONG_RUNS/egg_dense" "$scratch/egg_dense.finished"
