@@ -602,6 +602,8 @@ finish_run() {
   # The run has ended: its rescue point and best policy so far are superseded
   # by policy.fmsr and best_on_validation.fmsr (history keeps them).
   rm -rf "$pre/rescue" "$pre/best_so_far.fmsr" "$pre/best_so_far.env"
+  # The first finish to reach here (a later bare `finish` passes again over a run `finish RUN` ended).
+  [ -f "$out/finished.env" ] && return
   printf 'FINISHED=%s\nCOMMIT=%s\n' "$(date -u +%FT%TZ)" "$(git rev-parse --short HEAD)" > "$out/finished.env.tmp"
   mv "$out/finished.env.tmp" "$out/finished.env"
 }

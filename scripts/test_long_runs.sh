@@ -203,7 +203,9 @@ grep -q "not in the home" "$scratch/resumed" && fail "resume calls a finished ru
 "$keeper" record
 [ ! -e "$pre/egg_dense_paper/rescue" ] || fail "record wrote a rescue point of a finished run"
 [ ! -e "$records/egg_dense/lost.env" ] || fail "record marked a finished run lost"
+cp "$records/egg_dense/final/finished.env" "$scratch/finished.env"
 "$keeper" finish
+cmp -s "$records/egg_dense/final/finished.env" "$scratch/finished.env" || fail "the bare finish rewrote egg_dense's finished.env"
 for run in egg_dense_fmsr_is egg_dense; do
   for f in test-rapier validation-rapier test-mujoco validation-mujoco trials-rapier trials-mujoco; do
     [ -s "$FMSR_LONG_RUNS_RECORDS/$run/final/$f.json" ] || fail "$run: no final evaluation $f"
