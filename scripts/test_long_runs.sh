@@ -205,7 +205,11 @@ grep -q "not in the home" "$scratch/resumed" && fail "resume calls a finished ru
 [ ! -e "$records/egg_dense/lost.env" ] || fail "record marked a finished run lost"
 cp "$records/egg_dense/final/finished.env" "$scratch/finished.env"
 "$keeper" finish
-cmp -s "$records/egg_dense/final/finished.env" "$scratch/finished.env" || fail "the bare finish rewrote egg_dense's finished.env"
+# Again with the finished run back in the home: it passes over egg_dense's
+# finish_run, which keeps the finish that first ended it.
+mv "$scratch/egg_dense.finished" "$FMSR_LONG_RUNS/egg_dense"
+"$keeper" finish
+cmp -s "$records/egg_dense/final/finished.env" "$scratch/finished.env" || fail "a later finish rewrote egg_dense's finished.env"
 for run in egg_dense_fmsr_is egg_dense; do
   for f in test-rapier validation-rapier test-mujoco validation-mujoco trials-rapier trials-mujoco; do
     [ -s "$FMSR_LONG_RUNS_RECORDS/$run/final/$f.json" ] || fail "$run: no final evaluation $f"
