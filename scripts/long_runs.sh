@@ -573,6 +573,12 @@ finish_run() {
   name=$(basename "$dir")
   out=$records/$name/final
   pre=$pretrained/${name}_paper
+  # Ended by an earlier finish (`finish RUN`, or a bare one run again): its
+  # best snapshot may be gone with the home, and best_so_far.fmsr with it.
+  if finished_out "$records/$name"; then
+    echo "$name: finished before ($(tr '\n' ' ' < "$out/finished.env"))"
+    return
+  fi
   mkdir -p "$out" "$pre"
   # shellcheck disable=SC1091
   (source "$dir/keeper.env"
@@ -602,8 +608,6 @@ finish_run() {
   # The run has ended: its rescue point and best policy so far are superseded
   # by policy.fmsr and best_on_validation.fmsr (history keeps them).
   rm -rf "$pre/rescue" "$pre/best_so_far.fmsr" "$pre/best_so_far.env"
-  # The first finish to reach here (a later bare `finish` passes again over a run `finish RUN` ended).
-  [ -f "$out/finished.env" ] && return
   printf 'FINISHED=%s\nCOMMIT=%s\n' "$(date -u +%FT%TZ)" "$(git rev-parse --short HEAD)" > "$out/finished.env.tmp"
   mv "$out/finished.env.tmp" "$out/finished.env"
 }

@@ -206,7 +206,8 @@ grep -q "not in the home" "$scratch/resumed" && fail "resume calls a finished ru
 cp "$records/egg_dense/final/finished.env" "$scratch/finished.env"
 "$keeper" finish
 # Again with the finished run back in the home: it passes over egg_dense's
-# finish_run, which keeps the finish that first ended it.
+# finish_run (it restored from the rescue point and lost its best snapshot, and
+# the first finish removed best_so_far.fmsr: until this was found, a second finish failed here).
 mv "$scratch/egg_dense.finished" "$FMSR_LONG_RUNS/egg_dense"
 "$keeper" finish
 cmp -s "$records/egg_dense/final/finished.env" "$scratch/finished.env" || fail "a later finish rewrote egg_dense's finished.env"
