@@ -644,14 +644,14 @@ finish() {
   # One build for every evaluation: rapier and MuJoCo alike.
   work_tree_binary
   evaluate_snapshots
-  for dir in "${chosen[@]}"; do finish_run "$dir"; done
-  if [ $# -gt 0 ]; then
-    write_section
-    for dir in "${chosen[@]}"; do du -sh "$pretrained/$(basename "$dir")_paper"; done
-    return
+  for dir in "${chosen[@]}"; do
+    finish_run "$dir"
+    [ $# -eq 0 ] || policies+=("$pretrained/$(basename "$dir")_paper")
+  done
+  if [ $# -eq 0 ]; then
+    for out in $(recorded); do policies+=("$pretrained/$(basename "$out")_paper"); done
+    nice -n 5 "$fmsr" report "${policies[@]}" --out "$records/report"
   fi
-  for out in $(recorded); do policies+=("$pretrained/$(basename "$out")_paper"); done
-  nice -n 5 "$fmsr" report "${policies[@]}" --out "$records/report"
   write_section
   # What the policies add to the tracked tree (kept under 56 MiB, issue 53).
   du -sh "${policies[@]}"

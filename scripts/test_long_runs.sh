@@ -194,12 +194,24 @@ grep -q '^FINISHED=' "$records/egg_dense/final/finished.env" || fail "finish egg
 [ ! -e "$records/report" ] || fail "finish egg_dense wrote the report"
 grep -q '### At the end: against the paper' "$scratch/results.md" && fail "the section compares the final policies before both ended"
 grep -q "the final evaluations and policies of the runs that have ended are written: Dense (in " "$scratch/results.md" || fail "the section does not say Dense's final evaluations are written"
-# The home loses the finished run: resume neither restores it nor calls it
-# missing, `lost` does not mark it, record leaves it as it is.
+# The home loses both runs: resume restores the one not finished, even with an
+# evaluation of a `finish` cut off in its records (until 2026-12-02 the first
+# final evaluation alone counted a run finished, and resume passed it over),
+# neither restores the finished one nor calls it missing; record leaves that
+# one as it is and does not mark it lost.
 mv "$FMSR_LONG_RUNS/egg_dense" "$scratch/egg_dense.finished"
+mv "$FMSR_LONG_RUNS/egg_dense_fmsr_is" "$scratch/egg_dense_fmsr_is.lost"
+mkdir -p "$records/egg_dense_fmsr_is/final"
+cp "$records/egg_dense/final/test-rapier.json" "$records/egg_dense_fmsr_is/final/test-rapier.json"
 "$keeper" resume > "$scratch/resumed"
+grep -q "^egg_dense_fmsr_is: restored from its rescue point" "$scratch/resumed" || fail "resume did not restore the run a finish was cut off in: $(cat "$scratch/resumed")"
 grep -q "egg_dense: restored" "$scratch/resumed" && fail "resume restored a finished run: $(cat "$scratch/resumed")"
 grep -q "not in the home" "$scratch/resumed" && fail "resume calls a finished run missing: $(cat "$scratch/resumed")"
+for _ in $(seq 120); do
+  "$keeper" status > "$scratch/status"
+  grep -q alive "$scratch/status" || break
+  sleep 1
+done
 "$keeper" record
 [ ! -e "$pre/egg_dense_paper/rescue" ] || fail "record wrote a rescue point of a finished run"
 [ ! -e "$records/egg_dense/lost.env" ] || fail "record marked a finished run lost"
