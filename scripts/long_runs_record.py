@@ -274,7 +274,7 @@ def latest_common_snapshot(runs):
     return max(common, default=None)
 
 
-def latest_orderings(runs, lost=False):
+def latest_orderings(runs, lost=False, ended=False):
     """The paper's orderings of Table I, and the drops, at the latest snapshot both runs have on the test set (one seed, before `finish`)."""
     labels = ("Dense+FMSR+IS", "Dense")
     by_label = {r["label"]: r for r in runs}
@@ -292,6 +292,8 @@ def latest_orderings(runs, lost=False):
             "over the episodes; the verdict needs our 95 % interval of the difference to exclude zero). "
             + ("Lost before the end and one seed each: the final comparison, on both engines and with 500 trials for "
                "the drops (`finish`'s), was never run:" if lost else
+               "The last snapshot, one seed each: the final comparison, on both engines and with 500 trials for the "
+               "drops, is `finish`'s, at the end of this section:" if ended else
                "In progress and one seed each: the final comparison, on both engines and with 500 trials for the drops, "
                "is `finish`'s:"), ""
             ] + long_runs_final.ORDERING_HEADER + long_runs_final.ordering_rows(ta, tb, ta["task"], labels) + [
@@ -341,7 +343,9 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
         f"samples, seed 0, trained on {' and '.join(engines)}; the goal distance each config.toml names), one core "
         "each (`trainer.threads = 1`, `networks.threads = 1`, which do not change the results), kept across sessions "
         "by `scripts/long_runs.sh` in `$HOME/.local/share/fmsr/long-runs`, with rescue points in `pretrained/`."
-        + ("" if gone else " Until both reach 400 epochs this section is progress, not a result.")
+        + ("" if gone else
+           " Both reached 400 epochs: the final comparison is at the end of this section." if finals else
+           " Until both reach 400 epochs this section is progress, not a result.")
     )
     lines.append("")
     lines += lost_note(runs, lost)
@@ -411,9 +415,9 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
         if best is not None:
             t = dict(r["snapshots"])[best]["test"]
             lines.append("")
-            when = "when the run was lost" if r["lost"] else "so far"
-            lines.append(f"- {r['label']}: the snapshot best on validation {when} is epoch {best}, test success {pct(t['interval']) if t else 'n/a'}.")
-    lines += latest_orderings(runs, gone)
+            when = " when the run was lost" if r["lost"] else "" if finals else " so far"
+            lines.append(f"- {r['label']}: the snapshot best on validation{when} is epoch {best}, test success {pct(t['interval']) if t else 'n/a'}.")
+    lines += latest_orderings(runs, gone, ended=bool(finals))
     lines += lost_runs(lost, records_rel)
     if finals:
         lines += long_runs_final.section_lines(finals, records_rel, pretrained_rel)
