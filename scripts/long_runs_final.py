@@ -479,6 +479,10 @@ def readme(run_records, out, commit):
                     " Restarted from its rescue point at epoch" + ("s " if len(restarts) > 1 else " ")
                     + ", ".join(str(r.get("restart", {}).get("epoch", "?")) for r in restarts)
                     + " (the home was lost; replay refilled, `docs/results.md` says what each lost).")
+    # The binary the run ended with: its own commit's, or a restore's build (BIN_NOTE says which).
+    note = env.get("BIN_NOTE", "").strip().strip('"')
+    exporter = (f"the binary the run ended with (`{Path(env['BIN']).name}`" + (f": {note})" if note else ")")
+                if env.get("BIN") else "the run's own binary")
     text = f"""# Egg, six agents, {f['label']}: the paper's budget
 
 The long run of issues 37 and 53 (`scripts/long_runs.sh`): `{env.get('CONFIG', '?')}`, seed 0, trained on {shown(home)}, the paper's config
@@ -488,7 +492,7 @@ evaluation episodes), started
 development VM (2 cores, no GPU), one core per run.{restart_line} Learning curve and snapshots: `docs/results.md`,
 section "The paper's budget".
 
-`policy.fmsr` is the policy after the last epoch (no selection), exported by the run's own binary and
+`policy.fmsr` is the policy after the last epoch (no selection), exported by {exporter} and
 evaluated with the build of `{commit}` (`--features mujoco`), its evaluations written into the file
 (`fmsr eval ... --record`). {best_line}
 
