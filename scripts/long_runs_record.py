@@ -275,7 +275,8 @@ def latest_common_snapshot(runs):
 
 
 def latest_orderings(runs, lost=False, ended=False):
-    """The paper's orderings of Table I, and the drops, at the latest snapshot both runs have on the test set (one seed, before `finish`)."""
+    """The paper's orderings of Table I, and the drops, at the latest snapshot both runs have on the test set (one seed);
+    `lost`: the runs were lost before `finish`; `ended`: `finish` has written the final comparison."""
     labels = ("Dense+FMSR+IS", "Dense")
     by_label = {r["label"]: r for r in runs}
     a, b = (by_label.get(label) for label in labels)
@@ -344,7 +345,7 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
         "each (`trainer.threads = 1`, `networks.threads = 1`, which do not change the results), kept across sessions "
         "by `scripts/long_runs.sh` in `$HOME/.local/share/fmsr/long-runs`, with rescue points in `pretrained/`."
         + ("" if gone else
-           " Both reached 400 epochs: the final comparison is at the end of this section." if finals else
+           " Both runs have ended: the final comparison is at the end of this section." if finals else
            " Until both reach 400 epochs this section is progress, not a result.")
     )
     lines.append("")

@@ -249,6 +249,14 @@ done
 # Twice at epoch 2: the restore above, then the one after the cut-off finish.
 grep -q "Restarted from its rescue point at epochs 2, 2 " "$FMSR_LONG_RUNS_PRETRAINED/egg_dense_fmsr_is_paper/README.md" || fail "the README does not say where the run was restored"
 grep -q "seed 0, trained on MuJoCo;" "$scratch/results.md" || fail "the section does not say the runs trained on MuJoCo"
+# A restored run's README names the restore's build (until 2026-12-02 it said "the run's own binary").
+grep -q "exported by the binary the run ended with (\`fmsr-.*\`: restored .* from the rescue point of epoch 2 with the build of" \
+  "$FMSR_LONG_RUNS_PRETRAINED/egg_dense_fmsr_is_paper/README.md" || fail "the README does not name the restore's binary"
+# An ended pair's section is no longer progress (until 2026-12-02 it still said so after finish).
+grep -Eq "this section is progress, not a result|In progress and one seed each|best on validation so far" "$scratch/results.md" \
+  && fail "the section of runs that have ended still calls itself in progress"
+grep -q "Both runs have ended: the final comparison is at the end of this section" "$scratch/results.md" \
+  || fail "the section of runs that have ended does not say so"
 [ -s "$FMSR_LONG_RUNS_RECORDS/report/summary.md" ] || fail "no report"
 # Over both policies, egg_dense's too, finished earlier and gone from the home.
 grep -q "^2 run(s) over 1 task(s)" "$FMSR_LONG_RUNS_RECORDS/report/summary.md" || fail "the report is not over both runs: $(head -n 3 "$FMSR_LONG_RUNS_RECORDS/report/summary.md")"
