@@ -171,7 +171,11 @@ fn an_exported_policy_gives_the_results_of_its_run() {
     let summary = std::fs::read_to_string(report.join("summary.md")).unwrap();
     assert!(summary.contains("| block | Dense+FMSR+IS (policy file) |"), "{summary}");
     assert!(summary.contains("| block | Dense+FMSR+IS |"), "{summary}");
-    assert!(summary.contains(&format!("| {file_s} | block | Dense+FMSR+IS (policy file) | 0 | 1 |")), "{summary}");
+    // Runs given by absolute paths are named from the report (its links work
+    // wherever the two move together), never by the machine's path.
+    let file_link = "[../pretrained/tiny/policy.fmsr](../pretrained/tiny/policy.fmsr)";
+    assert!(summary.contains(&format!("| {file_link} | block | Dense+FMSR+IS (policy file) | 0 | 1 |")), "{summary}");
+    assert!(!summary.contains(tmp.path().to_str().unwrap()), "{summary}");
     assert!(shipped.join("render/episode-0-rapier.gif").exists(), "the report draws a policy file beside it");
 
     // The main job's report sets the newcomer's run beside the shipped policy.
@@ -190,7 +194,10 @@ fn an_exported_policy_gives_the_results_of_its_run() {
     ]);
     assert!(out.status.success(), "{}", text(&out));
     let summary = std::fs::read_to_string(run2.join("report/summary.md")).unwrap();
-    assert!(summary.contains("Dense+FMSR+IS (policy file)") && summary.contains(file_s), "{summary}");
+    assert!(
+        summary.contains("Dense+FMSR+IS (policy file)") && summary.contains("](../../pretrained/tiny/policy.fmsr)"),
+        "{summary}"
+    );
 }
 
 // Guards the policy file reader (issue 30, item 1): another format version, a

@@ -10,7 +10,10 @@
 //!   min-max spread over seeds) per task, `fig3_<task>.png`.
 //! - Fig. 4: the stability measures over one test episode (the first of the fixed
 //!   test set, the same for every policy) per task, `fig4_<task>.png`.
-//! - `summary.md`: a one-page summary linking all of it.
+//! - `summary.md`: a one-page summary linking all of it. It names each run by
+//!   its path from the report's directory, as a link, whatever path it was
+//!   given by, so the summary names no machine's checkout and its links work
+//!   wherever the report and the runs move together.
 //!
 //! A report written into a directory that holds an earlier one replaces it:
 //! the files an earlier report wrote there and this one does not (the figures
@@ -28,9 +31,11 @@ use fmsr_core::persist::write_atomic;
 use fmsr_core::trainer::EpochStats;
 
 pub mod choice;
+mod links;
 
 use crate::artefacts::{EvalReport, PolicyFile, RenderTarget, RunDir, Source, read_eval};
 use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError};
+use links::RunLinks;
 
 /// One run as the report sees it.
 #[derive(Debug, Clone)]
@@ -135,7 +140,7 @@ impl RunRecord {
 
 /// The cross-engine table: every run evaluated on another engine, beside its
 /// evaluation on its own (`None` when no run was).
-fn cross_engine_table(runs: &[RunRecord]) -> Option<String> {
+fn cross_engine_table(runs: &[RunRecord], links: &RunLinks) -> Option<String> {
     let rows: Vec<&RunRecord> = runs.iter().filter(|r| !r.cross_evals.is_empty()).collect();
     if rows.is_empty() {
         return None;
@@ -146,7 +151,7 @@ fn cross_engine_table(runs: &[RunRecord]) -> Option<String> {
     );
     for r in rows {
         for e in r.eval.iter().chain(&r.cross_evals) {
-            let _ = writeln!(md, "| {} | {} |", r.dir.display(), e.cross_engine_cells(r.config.engine.key()));
+            let _ = writeln!(md, "| {} | {} |", links.link(&r.dir), e.cross_engine_cells(r.config.engine.key()));
         }
     }
     Some(md)
@@ -155,14 +160,14 @@ fn cross_engine_table(runs: &[RunRecord]) -> Option<String> {
 /// Copies each run's rendered test episode into `out/render/` and returns the
 /// summary's section: per run, the strip of its first, middle and last frames and a
 /// link to the GIF.
-fn renderings_section(runs: &[RunRecord], out: &Path) -> Result<String, ExperimentError> {
+fn renderings_section(runs: &[RunRecord], out: &Path, links: &RunLinks) -> Result<String, ExperimentError> {
     let mut md = String::from("## Test episode 0, rendered\n\n");
     md.push_str("The first episode of the fixed test set, played by each run's policy on its own engine (`fmsr render`): first, middle and last step.\n\n");
     let dir = out.join("render");
     let mut missing = Vec::new();
     for (i, r) in runs.iter().enumerate() {
         let Some((gif, strip)) = &r.rendering else {
-            missing.push(r.dir.display().to_string());
+            missing.push(links.link(&r.dir));
             continue;
         };
         std::fs::create_dir_all(&dir).map_err(|source| ExperimentError::Io { path: dir.clone(), source })?;
@@ -174,7 +179,7 @@ fn renderings_section(runs: &[RunRecord], out: &Path) -> Result<String, Experime
         let _ = writeln!(
             md,
             "**{}** ({}, {}): [animation](render/{stem}.gif)\n\n![{stem}](render/{stem}.png)\n",
-            r.dir.display(),
+            links.link(&r.dir),
             r.label,
             r.config.engine.key()
         );
@@ -186,14 +191,15 @@ fn renderings_section(runs: &[RunRecord], out: &Path) -> Result<String, Experime
 }
 
 /// Each evaluated run's test success beside the chance level of its test set.
-fn chance_section(runs: &[RunRecord]) -> String {
+fn chance_section(runs: &[RunRecord], links: &RunLinks) -> String {
     let mut md = String::from(
         "\n## Against chance\n\nThe same test episodes played by a hand that holds still (zero action, simulated on the evaluation's engine; in evaluations written before 2026-11-27, estimated as the episodes that start within the threshold): a result near that level has not learned to rotate. The goal distance is the one the success was counted by: `full` (the full angle between the orientations, gym's) or `yaw` (rotation about Z alone, the records before 2026-11-27).\n\n| Run | Configuration | Goal distance | Test success | Holding still |\n|---|---|---|---|---|\n",
     );
     for r in runs {
         let Some(e) = &r.eval else { continue };
         let (test, still) = choice::chance_cells(e);
-        let _ = writeln!(md, "| {} | {} | {} | {test} | {still} |", r.dir.display(), e.method, e.goal_distance.key());
+        let _ =
+            writeln!(md, "| {} | {} | {} | {test} | {still} |", links.link(&r.dir), e.method, e.goal_distance.key());
     }
     md
 }
@@ -376,6 +382,7 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
     crate::font::register_font();
     std::fs::create_dir_all(out).map_err(|source| ExperimentError::Io { path: out.to_path_buf(), source })?;
     remove_previous_report(out)?;
+    let links = RunLinks::new(out)?;
     let mut by_task: BTreeMap<String, Vec<&RunRecord>> = BTreeMap::new();
     for r in runs {
         by_task.entry(r.task()).or_default().push(r);
@@ -401,7 +408,8 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
                 table2.push_str(&e.table2_row());
                 old_rule |= e.success_rule == crate::artefacts::SuccessRule::Reached;
                 distances.insert(e.goal_distance.key());
-                let _ = writeln!(chosen_md, "- {task}, {}: {} ({})", configuration.1, r.dir.display(), how.describe());
+                let _ =
+                    writeln!(chosen_md, "- {task}, {}: {} ({})", configuration.1, links.link(&r.dir), how.describe());
                 chosen.push((r, e, how));
             }
         }
@@ -422,12 +430,12 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
             let test = choice::rate_cell(r.eval.as_ref(), "not evaluated");
             let validation = choice::rate_cell(r.validation.as_ref(), "not evaluated");
             if r.eval.is_none() {
-                missing_eval.push(r.dir.display().to_string());
+                missing_eval.push(links.link(&r.dir));
             }
             let _ = writeln!(
                 runs_md,
                 "| {} | {task} | {} | {} | {} | {last} | {validation} | {test} |",
-                r.dir.display(),
+                links.link(&r.dir),
                 r.label,
                 r.config.trainer.seed,
                 r.metrics.len()
@@ -456,8 +464,8 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
     }
     summary.push_str("\n## Table II: failure types\n\n");
     summary.push_str(&table2);
-    summary.push_str(&chance_section(runs));
-    if let Some(table) = cross_engine_table(runs) {
+    summary.push_str(&chance_section(runs, &links));
+    if let Some(table) = cross_engine_table(runs, &links) {
         summary.push_str("\n## Cross-engine evaluation\n\nThe same checkpoint on the fixed test set of each engine (`fmsr eval --engine`).\n\n");
         summary.push_str(&table);
         write_atomic(&out.join("cross_engine.md"), table.as_bytes())?;
@@ -467,7 +475,7 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
         let name = f.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         let _ = writeln!(summary, "![{name}]({name})\n");
     }
-    summary.push_str(&renderings_section(runs, out)?);
+    summary.push_str(&renderings_section(runs, out, &links)?);
     summary.push_str("## Runs\n\n");
     summary.push_str(&runs_md);
     if !missing_eval.is_empty() {
