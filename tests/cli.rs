@@ -198,6 +198,8 @@ fn an_exported_policy_gives_the_results_of_its_run() {
         summary.contains("Dense+FMSR+IS (policy file)") && summary.contains("](../../pretrained/tiny/policy.fmsr)"),
         "{summary}"
     );
+    // The run holds its report: it is named, not shown as `..`.
+    assert!(summary.contains("[run2](..)") && !summary.contains("[..]"), "{summary}");
 }
 
 // Guards the policy file reader (issue 30, item 1): another format version, a

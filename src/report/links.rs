@@ -48,12 +48,20 @@ impl RunLinks {
 
     /// `[path](path)`, the path as [`RunLinks::path`], fit for a table cell:
     /// a target with spaces or brackets is written `<...>`, and `|` escaped.
+    /// A run that holds the report (the main job writes its report into the
+    /// run, whose path from there is `..`) is shown by its own name.
     pub(crate) fn link(&self, run: &Path) -> String {
         let path = self.path(run).replace('|', "\\|");
-        if path.contains(|c: char| c.is_whitespace() || "()<>".contains(c)) {
-            format!("[{path}](<{path}>)")
+        let text = if path.split('/').all(|part| part == ".." || part == ".") {
+            let resolved = std::fs::canonicalize(run).unwrap_or_else(|_| run.to_path_buf());
+            resolved.file_name().map_or_else(|| path.clone(), |n| n.to_string_lossy().replace('|', "\\|"))
         } else {
-            format!("[{path}]({path})")
+            path.clone()
+        };
+        if path.contains(|c: char| c.is_whitespace() || "()<>".contains(c)) {
+            format!("[{text}](<{path}>)")
+        } else {
+            format!("[{text}]({path})")
         }
     }
 }
@@ -85,6 +93,11 @@ mod tests {
         std::fs::create_dir(&inside).unwrap();
         assert_eq!(links.link(&inside), "[run a](<run a>)");
         assert_eq!(links.path(&out), ".");
+        // A run that holds the report (the main job's) is shown by its name.
+        let run = tmp.path().join("runs/egg quick");
+        std::fs::create_dir_all(run.join("report")).unwrap();
+        let links = RunLinks::new(&run.join("report")).unwrap();
+        assert_eq!(links.link(&run), "[egg quick](..)");
     }
 
     #[test]
