@@ -2,7 +2,7 @@
 //! `algorithm = "<name>"` and its `[<name>]` section.
 //!
 //! An entry is an update rule that implements
-//! [`ConfiguredRule`](fmsr_nn::ConfiguredRule): its name
+//! [`ConfiguredRule`]: its name
 //! ([`UpdateRule::NAME`](fmsr_nn::UpdateRule::NAME)), its settings with
 //! their defaults, and how the rule is made from them. MADDPG, MATD3 and
 //! MASAC are registered from the start, like any other; a rule of your own

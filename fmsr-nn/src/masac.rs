@@ -149,7 +149,7 @@ impl UpdateRule for MasacRule {
         (self.config.polyak, false)
     }
 
-    /// Version 1: postcard of [`MasacState`] (as learner states of formats 5 and 6 held it).
+    /// Version 1: postcard of `MasacState` (the temperatures' state, as learner states of formats 5 and 6 held it).
     fn state(&self) -> Result<Option<RuleState>, NnError> {
         RuleState::encode(1, &self.state).map(Some)
     }

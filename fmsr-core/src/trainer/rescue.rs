@@ -1,28 +1,5 @@
-//! Rescue points: a run's training state without its replay buffer, small
-//! enough to keep in a repository, from which a run whose machine (its
-//! checkpoint and replay log with it) was lost goes on.
-//!
-//! ```text
-//! magic "FMSRRESC" | format version (u32, LE) | CRC-32C of the body (u64, LE) | body (postcard)
-//! body: meta (JSON: the trainer's configuration, loop state with its RNG, counters
-//!       and history, the occupancy estimate, env steps, workers)
-//!     | algorithm (its state without storage, possibly thinned by its own tools)
-//!     | keeps (what the algorithm's part keeps, in the algorithm's words)
-//! ```
-//!
-//! Version 1. The trainer's part is a checkpoint's ([`super::Trainer::save_checkpoint`]),
-//! whole; the algorithm's is [`Algorithm::save_state`] without storage, which
-//! the algorithm may thin (fmsr-nn's `rescue_state`: `online` keeps the online
-//! networks, normalisers, RNG and counters, restores the targets as the
-//! online networks and Adam's moments fresh). A file of another version, a
-//! truncated or a corrupted one is refused with [`CoreError::Corrupt`] naming
-//! what is wrong before any of it is used.
-//!
-//! Restarting ([`super::Trainer::restore_rescue`]) loses the replay buffer:
-//! the run records the episodes it lost as its replay floor (a later
-//! checkpoint's replay log starts there), collects `refill` exploring
-//! episodes into the empty buffer before its next update, and goes on; the
-//! restart is in the run's history ([`Restart`]).
+//! Rescue points ([`RescuePoint`]): their file format, writing and reading,
+//! and restarting a run from one.
 
 use std::path::Path;
 
@@ -49,7 +26,31 @@ struct RescueFile {
     keeps: String,
 }
 
-/// A run's training state without its replay buffer; see the [module docs](self).
+/// A rescue point: a run's training state without its replay buffer, small
+/// enough to keep in a repository, from which a run whose machine (its
+/// checkpoint and replay log with it) was lost goes on.
+///
+/// ```text
+/// magic "FMSRRESC" | format version (u32, LE) | CRC-32C of the body (u64, LE) | body (postcard)
+/// body: meta (JSON: the trainer's configuration, loop state with its RNG, counters
+///       and history, the occupancy estimate, env steps, workers)
+///     | algorithm (its state without storage, possibly thinned by its own tools)
+///     | keeps (what the algorithm's part keeps, in the algorithm's words)
+/// ```
+///
+/// Version 1. The trainer's part is a checkpoint's ([`Trainer::save_checkpoint`]),
+/// whole; the algorithm's is [`Algorithm::save_state`] without storage, which
+/// the algorithm may thin (fmsr-nn's `rescue_state`: `online` keeps the online
+/// networks, normalisers, RNG and counters, restores the targets as the
+/// online networks and Adam's moments fresh). A file of another version, a
+/// truncated or a corrupted one is refused with [`CoreError::Corrupt`] naming
+/// what is wrong before any of it is used.
+///
+/// Restarting ([`Trainer::restore_rescue`]) loses the replay buffer:
+/// the run records the episodes it lost as its replay floor (a later
+/// checkpoint's replay log starts there), collects `refill` exploring
+/// episodes into the empty buffer before its next update, and goes on; the
+/// restart is in the run's history ([`Restart`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct RescuePoint {
     /// The trainer's part, as a checkpoint holds it (JSON).

@@ -1,19 +1,4 @@
-//! What MADDPG, MATD3 and MASAC share: the agents' networks in stacked
-//! groups ([`crate::group`], [`crate::Stacking`]) that live on the device
-//! across updates; input normalisers; the HER replay buffer and its sampling;
-//! the critic and actor steps with worker averaging and information sharing;
-//! polyak targets. Save/restore is in [`crate::state`].
-//!
-//! A step of the critics or actors runs every group's forward and backward
-//! pass (on worker threads when there are several groups), averages
-//! gradients over worker processes, mixes them over the graph in gradient
-//! mode, steps each group's optimiser and mixes parameters in parameter mode.
-//! With one group (GPUs) the kernels a joint update launches do not depend on
-//! the number of agents.
-//!
-//! Rollouts act on a host copy of the actors (burn's `flex` device), made
-//! once after each update phase, so an environment step never waits for a
-//! round trip to an accelerator.
+//! The learner ([`Learner`]): what MADDPG, MATD3 and MASAC share.
 //!
 //! By job: `replay.rs` holds the HER replay buffer, its sampling and the
 //! batches it uploads; `steps.rs` the critic and actor steps, worker averaging,
@@ -49,9 +34,26 @@ pub use self::replay::BatchTensors;
 pub use self::replay::{check_replay_fits, physical_memory_bytes};
 pub use self::stochastic::{SoftTerm, SquashedGaussian};
 
-/// The shared machinery; see the [module docs](self). An update rule
-/// ([`crate::UpdateRule`]) sees it through its public methods: the agents and
-/// their action widths, the step index, the RNG and device, and the steps
+/// What MADDPG, MATD3 and MASAC share: the agents' networks in stacked
+/// groups ([`crate::Stacking`]) that live on the device
+/// across updates; input normalisers; the HER replay buffer and its sampling;
+/// the critic and actor steps with worker averaging and information sharing;
+/// polyak targets. Its state is saved and restored through the algorithm
+/// ([`fmsr_core::algorithm::Algorithm::save_state`]).
+///
+/// A step of the critics or actors runs every group's forward and backward
+/// pass (on worker threads when there are several groups), averages
+/// gradients over worker processes, mixes them over the graph in gradient
+/// mode, steps each group's optimiser and mixes parameters in parameter mode.
+/// With one group (GPUs) the kernels a joint update launches do not depend on
+/// the number of agents.
+///
+/// Rollouts act on a host copy of the actors (burn's `flex` device), made
+/// once after each update phase, so an environment step never waits for a
+/// round trip to an accelerator.
+///
+/// An update rule ([`crate::UpdateRule`]) sees it through its public methods:
+/// the agents and their action widths, the step index, the RNG and device, and the steps
 /// ([`Learner::target_actions`], [`Learner::critic_step`],
 /// [`Learner::deterministic_actor_step`], [`Learner::deterministic_act`];
 /// [`Learner::sampled_next_actions`], [`Learner::soft_critic_step`],
