@@ -18,4 +18,5 @@ mod golden;
 mod learning;
 mod legacy_formats;
 mod rescue;
+mod shipped;
 mod user_shadow_reward;
