@@ -9,7 +9,7 @@
 //! directory is neither: its links work wherever the report and the runs move
 //! together.
 
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 
 use crate::experiment::ExperimentError;
 
@@ -36,13 +36,7 @@ impl RunLinks {
         let absolute = std::fs::canonicalize(run).or_else(|_| std::path::absolute(run));
         let relative = absolute.ok().and_then(|a| pathdiff::diff_paths(a, &self.base));
         let Some(relative) = relative else { return run.display().to_string() };
-        let parts: Vec<String> = relative
-            .components()
-            .map(|c| match c {
-                Component::ParentDir => "..".to_owned(),
-                c => c.as_os_str().to_string_lossy().into_owned(),
-            })
-            .collect();
+        let parts: Vec<_> = relative.components().map(|c| c.as_os_str().to_string_lossy()).collect();
         if parts.is_empty() { ".".to_owned() } else { parts.join("/") }
     }
 
