@@ -3,7 +3,11 @@
 E2/E3/E5, issue 53's item 3): a markdown table of test success (the run's
 own engine), drops, validation success and the test set on the other engine,
 per run and pooled over an arm's seeds, and each arm's pooled difference
-from the first arm.
+from the first arm; then where the test episodes ended (the median final
+full angle with its parts about the vertical and the tilt from it, the
+share that ended within the run's training threshold without a drop, the
+mean total contact), per run and pooled, and the first arm's difference in
+that share.
 
     scripts/compare_arms.py "Dense+FMSR+IS=RUN_S0,RUN_S1" "Dense=RUN_S0,RUN_S1"
 
@@ -25,7 +29,7 @@ import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from long_runs_final import newcombe, wilson  # noqa: E402
+from long_runs_final import angle_cell, final_angles, newcombe, training_threshold, wilson  # noqa: E402
 
 
 def load(path):
@@ -74,6 +78,9 @@ def run_row(d):
         "distance": test.get("goal_distance", "yaw"),
         "still": test["still"]["successes"] if test.get("still") else None,
         "test": counts(test),
+        # The test episodes' records (final angles, contacts) and the training threshold they are counted within.
+        "records": test.get("records", []),
+        "within": training_threshold(d / "config.toml"),
         "validation": counts(load(d / "eval-validation.json")),
         "cross": counts(load(d / f"eval-{other}.json")),
     }
@@ -120,6 +127,60 @@ def main(argv):
                 a, b = wilson(*base[k][:2]), wilson(*total[k][:2])
                 parts.append(f"{label} {pts(newcombe(a, b))}")
         print(f"- {base_name} minus {name}: " + "; ".join(parts))
+    print()
+    ended_table(arms, engine)
+
+
+def ended(records, within):
+    """Where episodes `records` ended: `final_angles`' medians and interval, the count within the threshold
+    without a drop (`close`, None without a threshold or full angles), and the mean total contact (None unless
+    every record has one)."""
+    p = final_angles({"records": records}, within)
+    p["episodes"] = len(records)
+    p["close"] = None if p["precise"] is None else sum(
+        1 for r in records if r["orientation"]["full_angle"] < within and not r.get("dropped"))
+    contacts = [r["total_contacts"] for r in records if r.get("total_contacts") is not None]
+    p["contact"] = sum(contacts) / len(contacts) if contacts and len(contacts) == len(records) else None
+    return p
+
+
+def ended_cells(p):
+    """The cells of one row of `ended_table`."""
+    angle = "—" if p["median_angle"] is None else angle_cell(p)
+    if p["precise"] is None:
+        close = "—"
+    else:
+        rate, lo, hi = p["precise"]
+        close = f"{100 * rate:.0f} % [{100 * lo:.0f}, {100 * hi:.0f}] ({p['close']}/{p['episodes']})"
+    contact = "—" if p["contact"] is None else f"{p['contact']:.0f}"
+    return f"{angle} | {close} | {contact}"
+
+
+def ended_table(arms, engine):
+    """Where each run's and each arm's (seeds pooled) test episodes ended, and the first arm's difference in the
+    share within the training threshold. The runs must share that threshold, else the shares are left out."""
+    thresholds = {r["within"] for _, rows in arms for _, r in rows}
+    within = thresholds.pop() if len(thresholds) == 1 else None
+    label = f"within {within:g} rad" if within is not None else "within the training threshold (the runs' differ)"
+    print(f"Where the test episodes ended ({engine}; the median final angle over every episode, with the medians "
+          f"of its parts; {label} and not dropped; the mean total contact of an episode):")
+    print()
+    print(f"| Arm | Run | Median final angle (rad) | {label[0].upper() + label[1:]}, not dropped | Total contact |")
+    print("|---|---|---|---|---|")
+    pooled = []
+    for name, rows in arms:
+        for d, r in rows:
+            print(f"| {name} | `{d.name}` | {ended_cells(ended(r['records'], within))} |")
+        records = [e for _, r in rows for e in r["records"]]
+        if len(rows) > 1:
+            print(f"| **{name}, {len(rows)} seeds pooled** | | {ended_cells(ended(records, within))} |")
+        pooled.append((name, ended(records, within)))
+    base_name, base = pooled[0]
+    lines = [f"- {base_name} minus {name}: {label} {pts(newcombe(base['precise'], p['precise']))}"
+             for name, p in pooled[1:] if base["precise"] and p["precise"]]
+    if lines:
+        print()
+        print("\n".join(lines))
 
 
 if __name__ == "__main__":
