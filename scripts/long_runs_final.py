@@ -152,6 +152,29 @@ def precision_rows(ea, eb, labels, within):
             f"| Difference | | {diff} |"]
 
 
+def precision_blocks(a, b, engine, name):
+    """The final section's tables of how close runs a and b (their `finals` and `within`) ended to their goals on
+    `engine` (shown as `name`): the fixed test set, then Table II's trials (the first TRIALS test episodes, the test
+    set among them: more episodes of the same draw) where both runs have them. Nothing for an evaluation without
+    the full angle."""
+    lines = []
+    test = a["finals"].get(f"test-{engine}")
+    for key in (f"test-{engine}", f"trials-{engine}"):
+        ea, eb = a["finals"].get(key), b["finals"].get(key)
+        rows = precision_rows(ea, eb, (a["label"], b["label"]), (a["within"], b["within"])) if ea and eb else []
+        if not rows:
+            continue
+        if key.startswith("test-"):
+            title = (f"**How close the test episodes ended to their goals, {name}** (ours, not the paper's measure: "
+                     "the success rule at 0.4 rad cannot separate two runs near its ceiling):")
+        else:
+            among = f", the {test['episodes']} above among them" if test else ""
+            title = (f"**The same over Table II's {ea['episodes']} trials, {name}** (the first {ea['episodes']} "
+                     f"test episodes{among}: more episodes of the same draw, a narrower interval):")
+        lines += [title, ""] + rows + [""]
+    return lines
+
+
 def newcombe(a, b):
     """Difference a - b of two Wilson intervals (p, lo, hi), Newcombe's hybrid score interval."""
     d = a[0] - b[0]
@@ -398,12 +421,7 @@ def section_lines(finals, records_rel, pretrained_rel):
                       "our values mean ± std over the episodes):", ""] + ORDERING_HEADER
             lines += table1_rows(a, b, engine)
             lines.append("")
-            close = precision_rows(a["finals"][f"test-{engine}"], b["finals"][f"test-{engine}"], (a["label"], b["label"]),
-                                   (a["within"], b["within"]))
-            if close:
-                lines += [f"**How close the test episodes ended to their goals, {name}** (ours, not the paper's "
-                          "measure: the success rule at 0.4 rad cannot separate two runs near its ceiling):", ""]
-                lines += close + [""]
+            lines += precision_blocks(a, b, engine, name)
         lines += [f"**Failure types (Table II), {name}:**", "",
                   "| Policy | Trials | Failures | Incomplete | Drops | Drops of the failures |", "|---|---|---|---|---|---|"]
         lines += table2_rows(finals, engine)

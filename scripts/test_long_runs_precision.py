@@ -116,4 +116,21 @@ if not any("within 0.1 rad" in line and "within 0.2 rad" in line for line in lin
 rows = fin.precision_rows(evaluation([0.05, 0.5]), evaluation([0.15, 0.5]), ("a", "b"), (0.1, 0.2))
 if not rows or "50 % [" not in rows[3] or "pts" in rows[4]:
     fail(f"finish's table at thresholds 0.1 and 0.2 should count 0.15 within 0.2 and take no difference: {rows}")
+# `finish`'s section: the test set's table, then the same over Table II's trials where both runs have them.
+fa = {"label": "Dense+FMSR+IS", "within": 0.1, "finals": {
+    "test-mujoco": evaluation([0.01, 0.5]), "trials-mujoco": evaluation([0.01, 0.5, 0.02, 0.03])}}
+fb = {"label": "Dense", "within": 0.1, "finals": {
+    "test-mujoco": evaluation([0.5, 0.5]), "trials-mujoco": evaluation([0.5, 0.5, 0.02, 0.6])}}
+lines = fin.precision_blocks(fa, fb, "mujoco", "MuJoCo")
+titles = [line for line in lines if line.startswith("**")]
+if len(titles) != 2 or "test episodes ended" not in titles[0] or "Table II's 4 trials, MuJoCo" not in titles[1] \
+        or "the 2 above among them" not in titles[1]:
+    fail(f"finish's section should give the test set's table, then the 4 trials': {titles}")
+trials = lines[lines.index(titles[1]):]
+if not any("| Dense+FMSR+IS |" in r and "75 % [" in r for r in trials) \
+        or not any("| Dense |" in r and "25 % [" in r for r in trials) or not any("+50 pts [" in r for r in trials):
+    fail(f"the trials' table should read 3 of 4 against 1 of 4 within 0.1 rad, +50 pts: {trials}")
+del fb["finals"]["trials-mujoco"]
+if sum(1 for line in fin.precision_blocks(fa, fb, "mujoco", "MuJoCo") if line.startswith("**")) != 1:
+    fail("without both runs' trials, only the test set's table")
 print("ok: the precision table counts episodes within each run's training threshold without a drop, per snapshot")
