@@ -37,11 +37,14 @@
 //! every earlier record be reproduced. Statistics added to `EpochStats`
 //! since a recording was made are compared when the recording has them.
 //!
-//! Numbers were meant to change once since the redesign: at 20cabc9 the
-//! learners' normals moved to rand_distr, and this CPU's recording was made
-//! again at that commit. The avx2 recording (e7b2f9c) could not be made again
-//! on this machine and was removed: an avx2 CPU compares nothing until it
-//! records at a commit whose numbers are the reference.
+//! burn's CPU backend is built with its `x86-v4` feature: `gemm` runs
+//! AVX-512 kernels on a CPU with AVX-512F and its AVX2/FMA kernels
+//! elsewhere, so an AVX-512F CPU (`... avx512f` below) computes other bits
+//! than an AVX2 one. The file holds the AVX2 CPUs' recording; it repeats bit
+//! for bit the one an AVX-512F CPU made while gemm ran its AVX2 kernels
+//! there too (`equivalent_to`). An AVX-512F CPU has no recording of the
+//! AVX-512 kernels yet: the test fails there until CI's record step, or
+//! `FMSR_GOLDEN=record`, makes one, saying so.
 
 use crate::common;
 
