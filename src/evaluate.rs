@@ -14,8 +14,10 @@
 //!
 //! Every success rate is given with its 95 % Wilson interval
 //! ([`fmsr_core::interval`]); each episode is recorded ([`EpisodeRecord`]),
-//! with its final orientation under both goal distances and the object's
-//! tilt ([`FinalOrientation`]). The same episodes are also played by a hand
+//! with its final orientation under every goal distance, the object's tilt
+//! and the final quaternions of the object (as the engine reports it, sign
+//! kept) and of the goal ([`FinalOrientation`]), from which anyone can
+//! recompute gym's distance. The same episodes are also played by a hand
 //! that holds still (zero action) on the same engine, the chance level every
 //! success is compared with ([`StillBaseline`]).
 
@@ -75,9 +77,11 @@ fn play<E: Env + ContactReadout + Send>(
     let mut trace = GraspTrace::new(dt)?;
     let mut metric_error = None;
     let mut distances = Vec::new();
+    let mut engine_quaternion = None;
     let episode = trainer.rollout_with(seed, ActMode::Evaluate, &mut |env, outcome| {
         let o = &outcome.observation;
         distances.push(env.goal_distance(&o.achieved_goal, &o.desired_goal));
+        engine_quaternion = env.object_orientation();
         if let Err(e) = trace.push(&env.object_contacts())
             && metric_error.is_none()
         {
@@ -92,7 +96,10 @@ fn play<E: Env + ContactReadout + Send>(
         .first()
         .map_or(f32::INFINITY, |o| trainer.env().goal_distance(&o.achieved_goal, &o.desired_goal));
     let final_error = distances.last().copied().unwrap_or(f32::INFINITY);
-    let orientation = episode.observations.last().and_then(|o| FinalOrientation::of(&o.achieved_goal, &o.desired_goal));
+    let orientation = episode
+        .observations
+        .last()
+        .and_then(|o| FinalOrientation::of(&o.achieved_goal, &o.desired_goal, engine_quaternion));
     let drop_step = episode.infos.iter().position(|i| i.dropped);
     let contacts = trace.contacts();
     let summary = trace.summary();

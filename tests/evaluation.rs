@@ -139,20 +139,39 @@ fn an_evaluation_names_the_distance_it_counted_by() {
     for (args, file, distance) in [
         (vec!["eval", run_s, "--episodes", "4"], "eval.json", GoalDistance::Full),
         (vec!["eval", run_s, "--episodes", "4", "--goal-distance", "yaw"], "eval-yaw.json", GoalDistance::Yaw),
+        (vec!["eval", run_s, "--episodes", "4", "--goal-distance", "gym"], "eval-gym.json", GoalDistance::Gym),
     ] {
         let out = fmsr(&args);
         assert!(out.status.success(), "{}", text(&out));
         assert!(text(&out).contains(&format!("by the {} distance", distance.key())), "{}", text(&out));
-        assert!(text(&out).contains(&format!("Under the {} distance:", distance.other().key())), "{}", text(&out));
+        for other in GoalDistance::ALL.into_iter().filter(|&d| d != distance) {
+            assert!(text(&out).contains(&format!("Under the {} distance:", other.key())), "{}", text(&out));
+        }
         let eval = read_eval(&run.join(file));
         assert_eq!(eval.goal_distance, distance, "{file}");
         let still = eval.still.expect("the hold-still baseline is simulated");
         assert_eq!(still.episodes, 4);
         for r in &eval.records {
             let o = r.orientation.expect("the final orientation is recorded");
-            assert_eq!(r.final_error, o.error(distance), "{file}: {r:?}");
+            assert_eq!(Some(r.final_error), o.error(distance), "{file}: {r:?}");
             assert!(o.full_angle.is_finite() && o.tilt.is_finite() && o.yaw_error <= std::f32::consts::PI);
         }
+    }
+    // Every record holds the engine's final quaternion (sign kept) and the
+    // goal's; gym's formula, written here as `manipulate.py` writes it
+    // (`quat_mul(a, quat_conjugate(b))`, `2 arccos(clip(w))`), recomputed from
+    // them gives each success flag of the evaluation under gym's distance.
+    let gym = read_eval(&run.join("eval-gym.json"));
+    for r in &gym.records {
+        let o = r.orientation.unwrap();
+        let (a, b) = (o.object_quaternion.expect("engine quaternion"), o.goal_quaternion.expect("goal quaternion"));
+        let b = [f64::from(b[0]), -f64::from(b[1]), -f64::from(b[2]), -f64::from(b[3])];
+        let w = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3];
+        let angle = 2.0 * w.clamp(-1.0, 1.0).acos();
+        assert!((angle - f64::from(r.final_error)).abs() < 1e-4, "{r:?}: gym's formula gives {angle}");
+        assert!((0.0..=std::f64::consts::TAU).contains(&angle));
+        let success = angle < f64::from(gym.threshold) && !r.dropped;
+        assert_eq!(success, r.outcome == fmsr_core::metrics::EpisodeOutcome::Success, "{r:?}");
     }
     // The same run, its config written before the distance existed.
     let legacy = config.replace("goal_distance = \"full\"\n", "");

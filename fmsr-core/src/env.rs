@@ -63,4 +63,11 @@ pub struct ObjectContacts {
 pub trait ContactReadout {
     /// The contacts of the last step.
     fn object_contacts(&self) -> ObjectContacts;
+
+    /// The object's orientation after the last step, `[w, x, y, z]`, as the
+    /// engine reports it (its sign kept, whatever the task observes), for the
+    /// evaluation's records; `None` (the default) for an env without one.
+    fn object_orientation(&self) -> Option<[f64; 4]> {
+        None
+    }
 }

@@ -86,7 +86,8 @@ pub struct EpisodeRecord {
     pub orientation: Option<FinalOrientation>,
 }
 
-/// Where the object ended, by every measure of its orientation (rad).
+/// Where the object ended, by every measure of its orientation (rad), and
+/// the quaternions the measures are taken from.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct FinalOrientation {
     /// The full angle between the final and the goal orientation.
@@ -95,26 +96,52 @@ pub struct FinalOrientation {
     pub yaw_error: f32,
     /// The angle between the object's axis and the world's Z axis.
     pub tilt: f32,
+    /// gymnasium-robotics' `2 arccos(w)` of the engine's final quaternion
+    /// against the goal's, over `[0, 2 pi]` (absent in files written before
+    /// the records held the engine's quaternion).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gym_angle: Option<f32>,
+    /// The object's final quaternion `[w, x, y, z]` as the engine reported
+    /// it, its sign kept (absent in older files).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub object_quaternion: Option<[f64; 4]>,
+    /// The goal's quaternion `[w, x, y, z]` (absent in older files).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub goal_quaternion: Option<[f32; 4]>,
 }
 
 impl FinalOrientation {
-    /// The orientations of a 7-dim achieved and desired goal (position, `[w, x, y, z]`).
+    /// The orientations of a 7-dim achieved and desired goal (position,
+    /// `[w, x, y, z]`), with `engine`, the object's quaternion as the engine
+    /// reported it (sign kept), where the env reads it out.
     #[must_use]
-    pub fn of(achieved: &[f32], desired: &[f32]) -> Option<Self> {
-        use fmsr_envs::shadow_hand::rotation::{full_angle, tilt, yaw_error};
-        (achieved.len() >= 7 && desired.len() >= 7).then(|| Self {
-            full_angle: full_angle(&achieved[3..7], &desired[3..7]),
-            yaw_error: yaw_error(&achieved[3..7], &desired[3..7]),
+    pub fn of(achieved: &[f32], desired: &[f32], engine: Option<[f64; 4]>) -> Option<Self> {
+        use fmsr_envs::shadow_hand::rotation::{full_angle, gym_angle, tilt, yaw_error};
+        if achieved.len() < 7 || desired.len() < 7 {
+            return None;
+        }
+        let goal = [desired[3], desired[4], desired[5], desired[6]];
+        // gym's angle of the quaternion the task observed under "gym": the
+        // engine's, in the observation's f32.
+        let gym = engine.map(|q| gym_angle(&q.map(|v| v as f32), &goal));
+        Some(Self {
+            full_angle: full_angle(&achieved[3..7], &goal),
+            yaw_error: yaw_error(&achieved[3..7], &goal),
             tilt: tilt(&achieved[3..7]),
+            gym_angle: gym,
+            object_quaternion: engine,
+            goal_quaternion: engine.map(|_| goal),
         })
     }
 
-    /// The final error under `distance`.
+    /// The final error under `distance` (`None` for gym's where the record
+    /// does not hold the engine's quaternion).
     #[must_use]
-    pub fn error(&self, distance: GoalDistance) -> f32 {
+    pub fn error(&self, distance: GoalDistance) -> Option<f32> {
         match distance {
-            GoalDistance::Full => self.full_angle,
-            GoalDistance::Yaw => self.yaw_error,
+            GoalDistance::Full => Some(self.full_angle),
+            GoalDistance::Gym => self.gym_angle,
+            GoalDistance::Yaw => Some(self.yaw_error),
         }
     }
 }
@@ -335,19 +362,19 @@ impl EvalReport {
         }
     }
 
-    /// Of this evaluation's successes, how many would fail under the other
-    /// goal distance, and of its failures how many would succeed under it:
-    /// `None` when the records hold no final orientation (files written before
-    /// 2026-11-27).
+    /// Of this evaluation's successes, how many would fail under the goal
+    /// distance `other`, and of its failures how many would succeed under it:
+    /// `None` when the records do not hold what `other` needs (files written
+    /// before the final orientations, or before the engine's quaternions for
+    /// gym's distance).
     #[must_use]
-    pub fn under_other_distance(&self) -> Option<(usize, usize)> {
-        let other = self.goal_distance.other();
+    pub fn under_distance(&self, other: GoalDistance) -> Option<(usize, usize)> {
         let mut lost = 0;
         let mut gained = 0;
         for r in &self.records {
-            let o = r.orientation?;
+            let error = r.orientation?.error(other)?;
             let success = r.outcome == EpisodeOutcome::Success;
-            let other_success = o.error(other) < self.threshold && !r.dropped;
+            let other_success = error < self.threshold && !r.dropped;
             lost += usize::from(success && !other_success);
             gained += usize::from(!success && other_success);
         }
@@ -358,11 +385,14 @@ impl EvalReport {
     /// the configuration's label, which later builds may spell otherwise
     /// (every episode's outcome, final angle and grasp measures, the trace).
     /// What only one of the two records (an evaluation written before the
-    /// hold-still simulation or the final orientations existed) is not compared.
+    /// hold-still simulation, the final orientations or the engine's
+    /// quaternions existed) is not compared.
     #[must_use]
     pub fn same_results(&self, other: &EvalReport) -> bool {
         let still = self.still.is_some() && other.still.is_some();
         let orientation = self.records.iter().chain(&other.records).all(|r| r.orientation.is_some());
+        let quaternions =
+            self.records.iter().chain(&other.records).all(|r| r.orientation.is_some_and(|o| o.gym_angle.is_some()));
         let common = |e: &EvalReport| {
             let mut e = EvalReport { seconds: 0.0, method: String::new(), ..e.clone() };
             if !still {
@@ -370,6 +400,11 @@ impl EvalReport {
             }
             if !orientation {
                 e.records.iter_mut().for_each(|r| r.orientation = None);
+            }
+            if !quaternions {
+                for o in e.records.iter_mut().filter_map(|r| r.orientation.as_mut()) {
+                    (o.gym_angle, o.object_quaternion, o.goal_quaternion) = (None, None, None);
+                }
             }
             e
         };
@@ -398,8 +433,9 @@ impl EvalReport {
         out.push_str(&Self::table2_header());
         out.push_str(&self.table2_row());
         let _ = writeln!(out, "\n{}: {}.", self.name, self.against_chance());
-        if let Some((lost, gained)) = self.under_other_distance() {
-            let (this, other) = (self.goal_distance.key(), self.goal_distance.other().key());
+        for other in GoalDistance::ALL.into_iter().filter(|&d| d != self.goal_distance) {
+            let Some((lost, gained)) = self.under_distance(other) else { continue };
+            let (this, other) = (self.goal_distance.key(), other.key());
             let _ = writeln!(
                 out,
                 "Under the {other} distance: {lost} of the {} successes by the {this} distance would fail, \
@@ -526,5 +562,23 @@ mod tests {
         let mut other = e.clone();
         other.records[40].final_error = 0.9;
         assert!(!e.same_results(&other));
+    }
+
+    // Guards `fmsr eval`'s check of the shipped policies, whose evaluations
+    // were written before the records held the engine's quaternions: an
+    // evaluation that has them repeats one that has not, when every episode
+    // ended as before, and differs where an episode's angle does.
+    #[test]
+    fn the_engines_quaternions_are_compared_only_where_both_hold_them() {
+        let at = |q: Option<[f64; 4]>| {
+            let a = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
+            let mut e = report(SuccessRule::ReachedAndHeld);
+            e.records.iter_mut().for_each(|r| r.orientation = FinalOrientation::of(&a, &a, q));
+            e
+        };
+        let (without, with) = (at(None), at(Some([1.0, 0.0, 0.0, 0.0])));
+        assert!(with.records[0].orientation.unwrap().gym_angle.is_some());
+        assert!(without.same_results(&with) && with.same_results(&without));
+        assert!(!with.same_results(&at(Some([-1.0, 0.0, 0.0, 0.0]))), "gym's 2 pi is another result");
     }
 }

@@ -117,8 +117,10 @@ pub(super) struct EvalArgs {
     #[arg(long)]
     pub(super) out: Option<PathBuf>,
     /// Count success by this goal distance (default: the one the policy
-    /// trained under, `env.goal_distance`): `full` (the full angle, gym's) or
-    /// `yaw` (rotation about Z alone, the records before 2026-11-27). In a run
+    /// trained under, `env.goal_distance`): `full` (the full angle, `q` and
+    /// `-q` one orientation), `gym` (gymnasium-robotics' `2 arccos(w)` over
+    /// [0, 2 pi]; the policy then observes the engine's quaternion sign) or
+    /// `yaw` (rotation about Z alone, the oldest records). In a run
     /// directory, an evaluation under the other distance goes to
     /// `eval-...-<distance>.json`.
     #[arg(long, value_enum)]
@@ -128,6 +130,7 @@ pub(super) struct EvalArgs {
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
 pub(super) enum DistanceArg {
     Full,
+    Gym,
     Yaw,
 }
 
@@ -135,6 +138,7 @@ impl From<DistanceArg> for GoalDistance {
     fn from(d: DistanceArg) -> Self {
         match d {
             DistanceArg::Full => GoalDistance::Full,
+            DistanceArg::Gym => GoalDistance::Gym,
             DistanceArg::Yaw => GoalDistance::Yaw,
         }
     }

@@ -13,12 +13,14 @@
 //!   rotation about Z by `U(-pi, pi)`: an upright object turned about Z.
 //! - **Action**: `a` in `[-1, 1]^20` maps to `ctrl = mid + a * half_range` of each
 //!   actuator's `ctrlrange`; one step is `substeps` (20) physics steps of 0.002 s.
-//! - **Goals** are 7-dim (object position, quaternion `[w, x, y, z]` with `w >= 0`);
+//! - **Goals** are 7-dim (object position, quaternion `[w, x, y, z]` with `w >= 0`,
+//!   or as the engine reports it under `"gym"`);
 //!   the goal distance ([`GoalDistance`], `goal_distance`) is by default the full
 //!   angle between the achieved and desired orientations, as gym's
-//!   `manipulate.py` measures it (a tilted object is far from an upright goal),
-//!   or the difference of their rotations about Z alone (`"yaw"`, the records
-//!   before 2026-11-27). Dense reward `-distance`, sparse `0` on
+//!   `manipulate.py` measures it (a tilted object is far from an upright goal)
+//!   with `q` and `-q` one orientation; `"gym"` is gym's formula exactly, over
+//!   `[0, 2 pi]` with the engine's quaternion sign kept (the paper's stack);
+//!   `"yaw"` the difference of the rotations about Z alone (older records). Dense reward `-distance`, sparse `0` on
 //!   success and `-1` otherwise; success when `distance < success_threshold`
 //!   (0.1 in training, 0.4 in testing).
 //! - **Observation**: gymnasium's 153 values (24 hand qpos, 24 hand qvel, 6 object
@@ -98,9 +100,11 @@ pub struct ShadowHandConfig {
     /// Success threshold on the goal distance (rad; 0.1 in training (default), 0.4 in testing).
     pub success_threshold: f32,
     /// How the goal distance is measured: `"full"` (default, the full angle
-    /// between the orientations, gym's) or `"yaw"` (rotation about Z alone, the
-    /// records before 2026-11-27). A saved run or policy that names none was
-    /// made under `"yaw"` and is read so.
+    /// between the orientations, `q` and `-q` one orientation), `"gym"`
+    /// (gymnasium-robotics' `2 arccos(w)` over `[0, 2 pi]`, the engine's
+    /// quaternion sign kept in observations and goals: the paper's stack) or
+    /// `"yaw"` (rotation about Z alone, the oldest records). A saved run or
+    /// policy that names none was made under `"yaw"` and is read so.
     pub goal_distance: GoalDistance,
     /// `rho`: the `safe_region` radius around the palm centre, the centroid of the
     /// 8 palm touch sites (m, default 0.08; the paper gives no value). At rest at
@@ -512,9 +516,12 @@ impl<P: HandPhysics> ShadowHand<P> {
             .collect()
     }
 
+    /// The object's pose as the achieved goal: the engine's quaternion with
+    /// `w >= 0`, or as the engine reports it where the distance tells the
+    /// two signs apart ([`GoalDistance::keeps_sign`], gym's).
     fn achieved_goal(&self) -> [f32; 7] {
         let (p, mut q) = self.physics.object_pose();
-        if q[0] < 0.0 {
+        if q[0] < 0.0 && !self.config.goal_distance.keeps_sign() {
             q.iter_mut().for_each(|v| *v = -*v);
         }
         [p[0], p[1], p[2], q[0], q[1], q[2], q[3]].map(|v| v as f32)
@@ -647,6 +654,10 @@ impl<P: HandPhysics> ContactReadout for ShadowHand<P> {
         let mut contacts = self.physics.object_contacts();
         contacts.active_touch_sensors = self.active_touch_count();
         contacts
+    }
+
+    fn object_orientation(&self) -> Option<[f64; 4]> {
+        Some(self.physics.object_pose().1)
     }
 }
 

@@ -22,6 +22,15 @@
 //! `atan2` form, in `f64`, keeps its precision near 0, where `arccos` loses
 //! it (the `w` of an error of 1e-3 rad is `1 - 1.25e-7`, two `f32` steps below 1).
 //!
+//! The **gym angle** (`GoalDistance::Gym`) is gymnasium-robotics' formula
+//! itself, `2 arccos(clip(w, -1, 1))` of `q_a * conj(q_b)` (in `f64`), over
+//! `[0, 2 pi]`: it tells `q` from `-q`. It is a distance between quaternions,
+//! not orientations, so under it the task keeps the engine's quaternion as it
+//! is (MuJoCo's `qpos` is continuous along the motion and never flips sign):
+//! an object turned the short way across yaw = `+-pi` to the goal's
+//! orientation reaches `-q_goal`, `2 pi` away. The object must be turned the
+//! direct way, as the paper's eq. 10 (`R1 = -|z_t - z_g|`) says.
+//!
 //! The **yaw error** (`GoalDistance::Yaw`) compares the rotations about Z
 //! alone, wrapped to `[0, pi]`: the distance of every record made before
 //! 2026-11-27. It is blind to a tilted or fallen object.
@@ -37,17 +46,22 @@ use serde::{Deserialize, Serialize};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum GoalDistance {
-    /// The full angle between the two orientations (gymnasium-robotics'
-    /// `manipulate.py`, the paper's environment; the default).
+    /// The full angle between the two orientations, in `[0, pi]`: gym's
+    /// measure with `q` and `-q` taken as one orientation (the default).
     #[default]
     Full,
+    /// gymnasium-robotics' `_goal_distance` exactly, `2 arccos(w)` over
+    /// `[0, 2 pi]`, with the engine's quaternion sign kept in the
+    /// observation, the achieved goal and the records (the paper's stack).
+    Gym,
     /// The difference of the rotations about Z alone: records made before
     /// 2026-11-27, kept so that they can be reproduced.
     Yaw,
 }
 
 impl GoalDistance {
-    /// The distance between the orientations `a` and `b` (`[w, x, y, z]`), in `[0, pi]`.
+    /// The distance between the orientations `a` and `b` (`[w, x, y, z]`), in
+    /// `[0, pi]` (`[0, 2 pi]` for [`GoalDistance::Gym`]).
     ///
     /// ```
     /// use fmsr_envs::shadow_hand::GoalDistance;
@@ -55,31 +69,38 @@ impl GoalDistance {
     /// let on_its_side = [0.5f32.sqrt(), 0.5f32.sqrt(), 0.0, 0.0]; // pi/2 about X
     /// assert!(GoalDistance::Yaw.between(&on_its_side, &upright) < 1e-6);
     /// assert!((GoalDistance::Full.between(&on_its_side, &upright) - std::f32::consts::FRAC_PI_2).abs() < 1e-6);
+    /// let flipped = [-1.0, 0.0, 0.0, 0.0]; // the upright orientation, the other sign
+    /// assert!(GoalDistance::Full.between(&flipped, &upright) < 1e-6);
+    /// assert!((GoalDistance::Gym.between(&flipped, &upright) - std::f32::consts::TAU).abs() < 1e-6);
     /// ```
     #[must_use]
     pub fn between(self, a: &[f32], b: &[f32]) -> f32 {
         match self {
             Self::Full => full_angle(a, b),
+            Self::Gym => gym_angle(a, b),
             Self::Yaw => yaw_error(a, b),
         }
     }
 
-    /// The name in configs and records: `"full"` or `"yaw"`.
+    /// The name in configs and records: `"full"`, `"gym"` or `"yaw"`.
     #[must_use]
     pub fn key(self) -> &'static str {
         match self {
             Self::Full => "full",
+            Self::Gym => "gym",
             Self::Yaw => "yaw",
         }
     }
 
-    /// The other distance.
+    /// Every distance, in the order of [`GoalDistance::key`]'s list.
+    pub const ALL: [Self; 3] = [Self::Full, Self::Gym, Self::Yaw];
+
+    /// Whether the task keeps the engine's quaternion sign in observations
+    /// and achieved goals (only [`GoalDistance::Gym`] tells the two signs
+    /// apart; the others see `w >= 0`).
     #[must_use]
-    pub fn other(self) -> Self {
-        match self {
-            Self::Full => Self::Yaw,
-            Self::Yaw => Self::Full,
-        }
+    pub fn keeps_sign(self) -> bool {
+        self == Self::Gym
     }
 }
 
@@ -101,6 +122,17 @@ pub fn full_angle(a: &[f32], b: &[f32]) -> f32 {
     ];
     let s = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     (2.0 * s.atan2(w.abs())) as f32
+}
+
+/// gymnasium-robotics' `_goal_distance` for rotation goals:
+/// `2 arccos(clip(w, -1, 1))` of `q_a * conj(q_b)` (`[w, x, y, z]`), in
+/// `[0, 2 pi]`, computed in `f64` as gym computes it. `w` of the product is
+/// the dot product of the two quaternions.
+#[must_use]
+pub fn gym_angle(a: &[f32], b: &[f32]) -> f32 {
+    let ([w1, x1, y1, z1], [w2, x2, y2, z2]) = (quat(a), quat(b));
+    let w = w1 * w2 + x1 * x2 + y1 * y2 + z1 * z2;
+    (2.0 * w.clamp(-1.0, 1.0).acos()) as f32
 }
 
 /// The rotation angle about Z of `q` (`[w, x, y, z]`): yaw, in `[-pi, pi]`.
@@ -177,7 +209,40 @@ mod tests {
         assert!((yaw_error(&a, &b) - (std::f32::consts::TAU - 6.0)).abs() < 1e-5);
     }
 
+    // Guards gym's double cover (the paper's stack): the goal's orientation
+    // reached with the other quaternion sign, as MuJoCo's continuous `qpos`
+    // arrives there after turning the short way across yaw = pi, is 2 pi
+    // away; reached the direct way, it is at 0.
+    #[test]
+    fn gym_tells_the_two_signs_apart() {
+        let goal = axis_angle([0.0, 0.0, 1.0], 3.0);
+        // From yaw -3.0 turned by -0.283 (the short way) the quaternion reaches
+        // yaw -3.283 = 3.0 - 2 pi: the goal's orientation, the other sign.
+        let short_way = axis_angle([0.0, 0.0, 1.0], 3.0 - std::f64::consts::TAU);
+        assert!(full_angle(&short_way, &goal) < 1e-5);
+        assert!((gym_angle(&short_way, &goal) - std::f32::consts::TAU).abs() < 1e-5);
+        assert!(gym_angle(&goal, &goal) < 1e-3);
+        assert!(GoalDistance::Gym.keeps_sign() && !GoalDistance::Full.keeps_sign());
+    }
+
     proptest! {
+        // gym's angle is the full angle where the product's w >= 0, and
+        // 2 pi less it otherwise.
+        #[test]
+        fn gym_angle_is_the_full_angle_or_its_complement(
+            ax in -1.0f64..1.0, ay in -1.0f64..1.0, az in 0.1f64..1.0, angle in 0.05f64..6.2,
+            bx in -1.0f64..1.0, by in -1.0f64..1.0, bz in -1.0f64..1.0, b_angle in -3.1f64..3.1,
+        ) {
+            let b = axis_angle([bx, by, bz + 1.5], b_angle);
+            let a = mul(axis_angle([ax, ay, az], angle), b);
+            let (g, f) = (gym_angle(&a, &b), full_angle(&a, &b));
+            prop_assert!((g - angle as f32).abs() < 1e-3, "{} vs {}", g, angle);
+            let w: f32 = a.iter().zip(&b).map(|(x, y)| x * y).sum();
+            let expected = if w >= 0.0 { f } else { std::f32::consts::TAU - f };
+            prop_assert!((g - expected).abs() < 1e-3, "{} vs {}", g, expected);
+            prop_assert!((0.0..=std::f32::consts::TAU + 1e-6).contains(&g));
+        }
+
         // The full angle is the angle of the rotation that takes one orientation
         // to the other: symmetric, the same for either sign of either
         // quaternion, in [0, pi].
