@@ -347,6 +347,51 @@ impl ReplayBuffer {
         goal_reward: &dyn Fn(&[f32], &[f32]) -> f32,
         agent_rewards: &AgentRewardFn<'_>,
     ) -> Result<Batch, CoreError> {
+        self.sample_among(self.len, n, her, layout, rng, goal_reward, agent_rewards)
+    }
+
+    /// As [`ReplayBuffer::sample`], the episodes drawn from the `latest` most
+    /// recently stored ones only: HER baselines' `store_episode` samples the
+    /// transitions of the episodes it just stored this way, relabelled, to
+    /// update the input normalisers.
+    ///
+    /// # Errors
+    /// As [`ReplayBuffer::sample`]; [`CoreError::InvalidConfig`] when `latest`
+    /// is 0 or more than the episodes stored.
+    #[allow(clippy::too_many_arguments)]
+    pub fn sample_latest<R: Rng + ?Sized>(
+        &self,
+        latest: usize,
+        n: usize,
+        her: &HerConfig,
+        layout: &ObservationLayout,
+        rng: &mut R,
+        goal_reward: &dyn Fn(&[f32], &[f32]) -> f32,
+        agent_rewards: &AgentRewardFn<'_>,
+    ) -> Result<Batch, CoreError> {
+        if latest == 0 || latest > self.len {
+            return Err(CoreError::InvalidConfig {
+                key: "latest episodes".into(),
+                reason: format!("{latest} asked, {} stored (need 1 to all of them)", self.len),
+            });
+        }
+        self.sample_among(latest, n, her, layout, rng, goal_reward, agent_rewards)
+    }
+
+    /// Samples from the `latest` most recently stored episodes (`self.len`:
+    /// all of them, the slots in any order, as [`ReplayBuffer::sample`] has
+    /// always drawn them).
+    #[allow(clippy::too_many_arguments)]
+    fn sample_among<R: Rng + ?Sized>(
+        &self,
+        latest: usize,
+        n: usize,
+        her: &HerConfig,
+        layout: &ObservationLayout,
+        rng: &mut R,
+        goal_reward: &dyn Fn(&[f32], &[f32]) -> f32,
+        agent_rewards: &AgentRewardFn<'_>,
+    ) -> Result<Batch, CoreError> {
         if self.len == 0 {
             return Err(CoreError::EmptyReplay);
         }
@@ -379,7 +424,13 @@ impl ReplayBuffer {
         let zeros = vec![0.0f32; ad];
         let mut out = vec![0.0f32; agents];
         for _ in 0..n {
-            let ep = rng.random_range(0..self.len);
+            let ep = if latest == self.len {
+                rng.random_range(0..self.len)
+            } else {
+                // The slot written `back + 1` stores ago.
+                let back = rng.random_range(0..latest);
+                (self.next + self.capacity - 1 - back) % self.capacity
+            };
             let t = rng.random_range(0..t_max);
             let goal: &[f32] = if rng.random::<f64>() < future_p {
                 let future = t + 1 + rng.random_range(0..t_max - t);
@@ -588,6 +639,30 @@ mod tests {
             for (future, &c) in row.iter().enumerate().skip(t + 1) {
                 assert!((c as f64 - mean).abs() <= 4.5 * sd.max(1.0), "t = {t}: t' = {future} drawn {c} times of {n}");
             }
+        }
+    }
+
+    // Guards the normalisers' sample of HER baselines' `store_episode`: the
+    // latest episodes only, the newest first after the ring has wrapped.
+    #[test]
+    fn sampling_the_latest_episodes_draws_only_them() {
+        let spec = spec();
+        let layout = ObservationLayout::new(spec.clone(), vec![vec![1], vec![0]]).unwrap();
+        let mut buffer = ReplayBuffer::new(&spec, 3 * T).unwrap();
+        for e in 0..5 {
+            buffer.store(&episode(e)).unwrap();
+        }
+        let reward = |_: &[f32], _: &[f32]| 0.0;
+        let agent_rewards = |_: f32, _: &[f32], out: &mut [f32]| out.fill(0.0);
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let her = HerConfig::default();
+        for (latest, allowed) in [(1, vec![4]), (2, vec![3, 4]), (3, vec![2, 3, 4])] {
+            let b = buffer.sample_latest(latest, 600, &her, &layout, &mut rng, &reward, &agent_rewards).unwrap();
+            let seen: std::collections::BTreeSet<usize> = (0..b.size).map(|i| b.obs[2 * i] as usize).collect();
+            assert_eq!(seen.into_iter().collect::<Vec<_>>(), allowed, "latest {latest}");
+        }
+        for latest in [0, 4] {
+            assert!(buffer.sample_latest(latest, 1, &her, &layout, &mut rng, &reward, &agent_rewards).is_err());
         }
     }
 

@@ -85,6 +85,83 @@ pub struct NetworkConfig {
     /// Which parts of the critics the agents hold once for all (default: none, the paper's MAGCLA).
     #[config(default = "CriticTying::PerAgent")]
     pub critic: CriticTying,
+    /// The bounds every critic's target `y_i` is clipped to (`clip_return`;
+    /// default: each agent's reward bounds over `1 - gamma`).
+    #[config(default = "TargetClip::RewardBounds")]
+    pub target_clip: TargetClip,
+    /// Which rows the input normalisers' statistics are taken from (default:
+    /// every sampled training batch).
+    #[config(default = "NormalizerStats::SampledBatches")]
+    pub normalizer_stats: NormalizerStats,
+}
+
+/// The rows from which the input normalisers' running mean and variance are
+/// taken.
+///
+/// ```text
+/// sampled_batches   every training batch, as sampled (HER-relabelled), before the step that reads it (default)
+/// stored_episodes   T rows per stored episode, sampled from it with HER relabelling, when it is stored
+/// ```
+///
+/// HER baselines (`her/ddpg.py`, `store_episode`) do the second: each batch
+/// of new episodes adds as many relabelled transitions, drawn from those
+/// episodes alone, as they hold. Sampled batches draw from the whole buffer,
+/// so there an episode enters the statistics as often as it is sampled,
+/// older ones more than newer ones.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum NormalizerStats {
+    /// Every sampled training batch (default).
+    #[default]
+    SampledBatches,
+    /// `T` relabelled transitions of each episode when it is stored (HER baselines', the paper's stack).
+    StoredEpisodes,
+}
+
+/// The bounds of the critics' targets `y_i = r_i + gamma Q'_i(...)` (eq. 7).
+///
+/// ```text
+/// reward_bounds   [lo_i, hi_i] / (1 - gamma)   each agent's per-step reward bounds (default)
+/// her_baselines   [-1 / (1 - gamma), 0]        every agent, whatever its reward
+/// ```
+///
+/// HER baselines (`her/experiment/config.py`, `clip_pos_returns = True`,
+/// `clip_return = 1 / (1 - gamma)`; `her/ddpg.py` clips every target to
+/// `(-clip_return, 0)`), whose hyperparameters the paper takes: with T = 100
+/// and gamma = 0.99 that is `[-100, 0]`. Its ceiling of 0 cuts every positive
+/// value a shadow reward adds, so under it the shadow reward can only lower a
+/// critic's values; `reward_bounds` lets an agent whose reward can be
+/// positive (`alpha z_k > 0`) learn positive values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum TargetClip {
+    /// Each agent's per-step reward bounds over `1 - gamma` (default).
+    #[default]
+    RewardBounds,
+    /// HER baselines': `[-1 / (1 - gamma), 0]` for every agent (the paper's stack).
+    HerBaselines,
+}
+
+impl TargetClip {
+    /// Each agent's target bounds from its per-step reward bounds `reward`
+    /// and the discount.
+    ///
+    /// ```
+    /// use fmsr_nn::TargetClip;
+    /// let reward = [(-3.0, 0.0), (-3.0, 2.0)];
+    /// let bounds = TargetClip::RewardBounds.bounds(&reward, 0.99);
+    /// assert!((bounds[1].1 - 200.0).abs() < 1e-3);
+    /// let her = TargetClip::HerBaselines.bounds(&reward, 0.99);
+    /// assert!(her.iter().all(|&(lo, hi)| (lo + 100.0).abs() < 1e-3 && hi == 0.0));
+    /// ```
+    #[must_use]
+    pub fn bounds(self, reward: &[(f64, f64)], gamma: f64) -> Vec<(f32, f32)> {
+        let scale = 1.0 / (1.0 - gamma);
+        match self {
+            Self::RewardBounds => reward.iter().map(|&(lo, hi)| ((lo * scale) as f32, (hi * scale) as f32)).collect(),
+            Self::HerBaselines => vec![(-scale as f32, 0.0); reward.len()],
+        }
+    }
 }
 
 /// Which parts of the critics the agents hold once for all of them (tied

@@ -24,7 +24,8 @@
 //!   [`StackedMlpConfig::init`], living on the device across updates and
 //!   optimised by burn's Adam with its state on the device;
 //! - running input normalisers (HER baselines), updated from each batch;
-//! - critic targets clipped to the reward bounds over `1 - gamma` (`clip_return`);
+//! - critic targets clipped to the reward bounds over `1 - gamma` (`clip_return`;
+//!   [`TargetClip`]: or HER baselines' `[-1 / (1 - gamma), 0]`);
 //! - information sharing (eq. 8) through [`fmsr_core::sharing::InformationSharing`]:
 //!   `theta_i <- sum_j M[i][j] theta_j` over the trunks, on parameters after
 //!   the optimiser step (default) or on gradients before it, one matmul of `M`
@@ -95,7 +96,10 @@ mod workers;
 pub use any::{AnyLearner, ConfiguredRule};
 /// burn's device type, re-exported for [`LearnerParts::with_device`] (e.g. `Device::flex()`).
 pub use burn::tensor::Device;
-pub use config::{CriticTying, CriticView, MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, Stacking, Teammates};
+pub use config::{
+    CriticTying, CriticView, MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, NormalizerStats, Stacking,
+    TargetClip, Teammates,
+};
 pub use device::{Adapter, DeviceSpec};
 /// The former name of [`CriticTying`].
 #[deprecated(note = "renamed CriticTying: \"sharing\" means information sharing (eq. 8)")]

@@ -512,4 +512,66 @@ mod tests {
         assert_eq!(workers(Stacking::PerAgent, 8), (3, 3), "at most one thread per group");
         assert_eq!(workers(Stacking::All, 2), (1, 0), "one group: one thread");
     }
+
+    struct Task;
+
+    impl fmsr_core::RewardModel for Task {
+        fn goal_reward(&self, a: &[f32], d: &[f32]) -> f32 {
+            -(a[0] - d[0]).abs()
+        }
+        fn agent_rewards(&self, task: f32, _: &[f32], out: &mut [f32]) {
+            out.fill(task);
+        }
+        fn reward_bounds(&self) -> Vec<(f64, f64)> {
+            vec![(-1.0, 0.0); 2]
+        }
+    }
+
+    // Guards `networks.normalizer_stats`: HER baselines' rule adds T
+    // relabelled rows of each episode when it is stored and nothing when a
+    // batch is sampled; the default adds every sampled batch and nothing at
+    // storing.
+    #[test]
+    fn the_normalisers_learn_from_what_the_setting_says() {
+        use crate::config::NormalizerStats;
+        use fmsr_core::replay::Episode;
+        use fmsr_core::spec::{JointAction, Observation, StepInfo};
+        const T: usize = 5;
+        let agent = |i: usize| AgentSpec { name: format!("a{i}"), action_slots: vec![i], local_obs_dim: 2 };
+        let spec = EnvSpec {
+            agents: (0..2).map(agent).collect(),
+            action_dim: 2,
+            obs_dim: 3,
+            goal_dim: 1,
+            episode_len: T,
+            features: vec![],
+            reward_range: (-1.0, 0.0),
+        };
+        let layout = ObservationLayout::new(spec, vec![vec![]; 2]).unwrap();
+        let episode = Episode {
+            observations: (0..=T)
+                .map(|t| Observation {
+                    global: vec![t as f32, 1.0, 2.0],
+                    locals: vec![vec![t as f32, 0.5]; 2],
+                    achieved_goal: vec![t as f32],
+                    desired_goal: vec![9.0],
+                })
+                .collect(),
+            actions: (0..T).map(|_| JointAction(vec![0.1, -0.1])).collect(),
+            infos: vec![StepInfo::default(); T],
+            log_probs: Vec::new(),
+        };
+        let counts = |stats: NormalizerStats| {
+            let net = NetworkConfig::new().with_hidden(8).with_layers(2).with_normalizer_stats(stats);
+            let replay = ReplayConfig { buffer_size: 100, batch_size: 16, ..ReplayConfig::default() };
+            let mut learner =
+                Learner::new(LearnerParts::new(layout.clone(), net, replay, 0.9), 1, 1, CriticView::Global).unwrap();
+            learner.store(&episode).unwrap();
+            let stored = (learner.critic_norm.count(), learner.actor_norms[1].count());
+            learner.sample(&Task).unwrap().unwrap();
+            (stored, (learner.critic_norm.count(), learner.actor_norms[1].count()))
+        };
+        assert_eq!(counts(NormalizerStats::StoredEpisodes), ((5.0, 5.0), (5.0, 5.0)));
+        assert_eq!(counts(NormalizerStats::SampledBatches), ((0.0, 0.0), (16.0, 16.0)));
+    }
 }

@@ -7,6 +7,7 @@ use fmsr_core::RewardModel;
 use fmsr_core::agent::Batch;
 use fmsr_core::replay::{Episode, ReplayBuffer};
 
+use crate::config::NormalizerStats;
 use crate::error::{NnError, check_values};
 use crate::group::GroupBatch;
 
@@ -37,9 +38,46 @@ impl BatchTensors {
 }
 
 impl Learner {
-    /// Stores an episode in the replay buffer.
+    /// Stores an episode in the replay buffer; with
+    /// [`NormalizerStats::StoredEpisodes`], adds `T` of its transitions,
+    /// sampled with HER relabelling, to the input normalisers.
     pub(crate) fn store(&mut self, episode: &Episode) -> Result<(), NnError> {
-        self.replay.store(episode).map_err(|e| NnError::Replay { reason: e.to_string() })
+        let replay_err = |e: fmsr_core::CoreError| NnError::Replay { reason: e.to_string() };
+        self.replay.store(episode).map_err(replay_err)?;
+        if self.net.normalizer_stats != NormalizerStats::StoredEpisodes {
+            return Ok(());
+        }
+        let rows = self.layout.spec().episode_len;
+        let b = self
+            .replay
+            .sample_latest(
+                1,
+                rows,
+                &self.replay_config.her,
+                &self.layout,
+                &mut self.rng,
+                &|_, _| 0.0,
+                &|_, _, out: &mut [f32]| out.fill(0.0),
+            )
+            .map_err(replay_err)?;
+        let og = self.obs_goal_rows(&b, &b.obs);
+        self.critic_norm.update(&og, self.comm.as_ref());
+        for (norm, x) in self.actor_norms.iter_mut().zip(&b.actor_inputs) {
+            norm.update(x, self.comm.as_ref());
+        }
+        Ok(())
+    }
+
+    /// `[x, g]` of every row of `b`, with `obs` its observations or next observations.
+    fn obs_goal_rows(&self, b: &Batch, obs: &[f32]) -> Vec<f32> {
+        let spec = self.layout.spec();
+        let (od, gd) = (spec.obs_dim, spec.goal_dim);
+        let mut out = Vec::with_capacity(b.size * (od + gd));
+        for r in 0..b.size {
+            out.extend_from_slice(&obs[r * od..(r + 1) * od]);
+            out.extend_from_slice(&b.goals[r * gd..(r + 1) * gd]);
+        }
+        out
     }
 
     /// The replay buffer's capacity in episodes.
@@ -52,8 +90,8 @@ impl Learner {
         self.replay.restore_log(total, episodes).map_err(|e| NnError::Replay { reason: e.to_string() })
     }
 
-    /// Samples a batch with HER, updates the normalisers with it (as HER
-    /// baselines do) and puts it on the device. `None` while the buffer is empty.
+    /// Samples a batch with HER, updates the normalisers with it (with
+    /// [`NormalizerStats::SampledBatches`]) and puts it on the device. `None` while the buffer is empty.
     pub(crate) fn sample(&mut self, rewards: &dyn RewardModel) -> Result<Option<BatchTensors>, NnError> {
         if self.replay.episodes() == 0 {
             return Ok(None);
@@ -98,8 +136,7 @@ impl Learner {
                 found: bounds.len(),
             });
         }
-        let scale = 1.0 / (1.0 - self.gamma);
-        let bounds = bounds.iter().map(|&(lo, hi)| ((lo * scale) as f32, (hi * scale) as f32)).collect();
+        let bounds = self.net.target_clip.bounds(&bounds, self.gamma);
         self.tensors(&b, bounds).map(Some)
     }
 
@@ -153,20 +190,12 @@ impl Learner {
     pub(crate) fn tensors(&mut self, b: &Batch, bounds: Vec<(f32, f32)>) -> Result<BatchTensors, NnError> {
         self.check_batch(b, &bounds)?;
         let n = b.size;
-        let spec = self.layout.spec();
-        let (od, gd) = (spec.obs_dim, spec.goal_dim);
-        let obs_goal = |obs: &[f32]| {
-            let mut out = Vec::with_capacity(n * (od + gd));
-            for r in 0..n {
-                out.extend_from_slice(&obs[r * od..(r + 1) * od]);
-                out.extend_from_slice(&b.goals[r * gd..(r + 1) * gd]);
+        let (mut og, mut og_next) = (self.obs_goal_rows(b, &b.obs), self.obs_goal_rows(b, &b.next_obs));
+        if self.net.normalizer_stats == NormalizerStats::SampledBatches {
+            self.critic_norm.update(&og, self.comm.as_ref());
+            for (norm, x) in self.actor_norms.iter_mut().zip(&b.actor_inputs) {
+                norm.update(x, self.comm.as_ref());
             }
-            out
-        };
-        let (mut og, mut og_next) = (obs_goal(&b.obs), obs_goal(&b.next_obs));
-        self.critic_norm.update(&og, self.comm.as_ref());
-        for (norm, x) in self.actor_norms.iter_mut().zip(&b.actor_inputs) {
-            norm.update(x, self.comm.as_ref());
         }
         self.critic_norm.normalize(&mut og);
         self.critic_norm.normalize(&mut og_next);
@@ -177,6 +206,8 @@ impl Learner {
         }
         let groups = (0..self.groups.len()).map(|g| self.group_batch(g, b, &bounds)).collect();
         let dev = &self.device;
+        let spec = self.layout.spec();
+        let (od, gd) = (spec.obs_dim, spec.goal_dim);
         Ok(BatchTensors {
             n,
             og: matrix(og, n, od + gd, dev),
