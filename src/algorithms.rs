@@ -36,9 +36,10 @@ use serde::Deserialize;
 use crate::error::ExperimentError;
 
 /// Keys of an experiment that no algorithm may take as its name.
-const RESERVED: [&str; 12] = [
+const RESERVED: [&str; 13] = [
     "name",
     "method",
+    "stack",
     "algorithm",
     "engine",
     "device",

@@ -6,6 +6,7 @@
 //! ```toml
 //! name = "block_dense_fmsr_is_quick"
 //! method = "dense_fmsr_is"      # dense_fmsr_is | dense_fmsr | dense | sparse
+//! stack = "fmsr"                # fmsr | paper (gym's goal distance, HER baselines' target clip and normalisers)
 //! algorithm = "maddpg"          # maddpg | matd3 | masac | one registered by your crate
 //! engine = "rapier"             # rapier | mujoco
 //! device = "cpu"
@@ -36,7 +37,9 @@
 //! that the method or the algorithm does not use (`[sharing]` without
 //! information sharing, `[trainer.shadow]` without shadow rewards, `[matd3]`
 //! under `algorithm = "maddpg"`). The discount is `trainer.gamma`, used by the
-//! occupancy estimate and the critics alike.
+//! occupancy estimate and the critics alike. `stack = "paper"` owns
+//! `env.goal_distance`, `networks.target_clip` and `networks.normalizer_stats`
+//! the same way ([`Stack`]).
 //!
 //! `algorithm` names an entry of the [registry](crate::algorithms): the
 //! three of this crate, and any rule a user's crate registered; its section
@@ -62,9 +65,10 @@ use fmsr_envs::shadow_hand::{GoalDistance, ShadowHandConfig};
 
 pub use crate::error::ExperimentError;
 use fmsr_graph::Graph;
-use fmsr_nn::{ConfiguredRule, CriticTying, Device, DeviceSpec, NetworkConfig, Teammates};
+use fmsr_nn::{ConfiguredRule, CriticTying, Device, DeviceSpec, NetworkConfig, NormalizerStats, TargetClip, Teammates};
 
 use crate::algorithms;
+pub use crate::stack::Stack;
 
 /// The timestep of the Shadow Hand model (s); one env step is `substeps` of them.
 pub const MODEL_TIMESTEP: f64 = 0.002;
@@ -194,6 +198,11 @@ pub struct ExperimentConfig {
     /// One of the paper's four configurations. It decides the task reward,
     /// whether shadow rewards are on and whether agents share information.
     pub method: Method,
+    /// Whose code the settings the paper leaves open follow
+    /// ([`Stack`]): `"fmsr"` (default) or `"paper"` (gym's goal distance,
+    /// HER baselines' target clip and normaliser statistics).
+    #[serde(default)]
+    pub stack: Stack,
     /// The learning algorithm by its registered name
     /// ([`crate::algorithms`]; default `"maddpg"`, the paper's).
     #[serde(default = "default_algorithm")]
@@ -303,6 +312,20 @@ fn check_owners(table: &toml::Table) -> Result<(), ExperimentError> {
             format!("`method = \"{}\"` uses no shadow rewards; remove the section", key_of(method)),
         );
     }
+    let stack = text(&["stack"]).and_then(|s| Stack::deserialize(toml::Value::String(s)).ok());
+    if stack == Some(Stack::Paper) {
+        for owned in Stack::OWNED {
+            let path: Vec<&str> = owned.key.split('.').collect();
+            if let Some(v) = text(&path)
+                && v != owned.paper
+            {
+                return conflict(
+                    owned.key,
+                    format!("`{v}` contradicts `stack = \"paper\"`, which sets it to `{}`", owned.paper),
+                );
+            }
+        }
+    }
     let algorithm = text(&["algorithm"]).unwrap_or_else(|| "maddpg".into());
     for name in algorithms::names() {
         if name != algorithm && table.contains_key(name) {
@@ -376,6 +399,15 @@ impl ExperimentConfig {
         let mut config =
             ExperimentConfig::deserialize(toml::Value::Table(value)).map_err(|e| parse_err(e.to_string()))?;
         config.algorithm_sections.insert(algorithm, settings);
+        if let Some(d) = config.stack.goal_distance() {
+            config.env.goal_distance = d;
+        }
+        if let Some(c) = config.stack.target_clip() {
+            config.networks.target_clip = c;
+        }
+        if let Some(n) = config.stack.normalizer_stats() {
+            config.networks.normalizer_stats = n;
+        }
         config.validate()?;
         Ok(config.with_sections_written())
     }
@@ -485,7 +517,9 @@ impl ExperimentConfig {
     /// ablation is never pooled with the method's runs; by `yaw distance` for
     /// the task of the records before 2026-11-27 (success by the rotation
     /// about Z alone, [`GoalDistance::Yaw`]), so that they are never pooled
-    /// with runs of the paper's task; and by the algorithm and the training
+    /// with runs of the paper's task; by `paper stack` under
+    /// [`Stack::Paper`], and otherwise by `gym distance`, `HER target clip`
+    /// and `HER normaliser statistics` for each of its settings alone; and by the algorithm and the training
     /// engine when they are not the paper's (MADDPG, rapier here), e.g. `Dense, MATD3, trained
     /// on MuJoCo`, so that a report never pools runs of two algorithms or two
     /// engines as seeds of one configuration.
@@ -508,8 +542,19 @@ impl ExperimentConfig {
         if self.graph.actor_observation == ActorView::Global {
             label.push_str(", global actors");
         }
-        if self.env.goal_distance == GoalDistance::Yaw {
-            label.push_str(", yaw distance");
+        match (self.stack, self.env.goal_distance) {
+            (_, GoalDistance::Yaw) => label.push_str(", yaw distance"),
+            (Stack::Fmsr, GoalDistance::Gym) => label.push_str(", gym distance"),
+            _ => {}
+        }
+        if self.stack == Stack::Fmsr && self.networks.target_clip == TargetClip::HerBaselines {
+            label.push_str(", HER target clip");
+        }
+        if self.stack == Stack::Fmsr && self.networks.normalizer_stats == NormalizerStats::StoredEpisodes {
+            label.push_str(", HER normaliser statistics");
+        }
+        if self.stack == Stack::Paper {
+            label.push_str(", paper stack");
         }
         let shadow = &self.trainer.shadow;
         if self.method.shadow() && shadow.alpha != ShadowConfig::default().alpha {
@@ -674,7 +719,7 @@ impl ExperimentConfig {
 mod label_tests {
     use std::path::Path;
 
-    use super::{Engine, ExperimentConfig};
+    use super::{Engine, ExperimentConfig, ExperimentError, GoalDistance, Stack, TargetClip};
 
     // Guards the report's grouping: a single agent owning the whole hand is a
     // configuration of its own, never pooled with the paper's six-agent Sparse.
@@ -824,6 +869,64 @@ mod label_tests {
             let name = |p: &Path| ExperimentConfig::load(p).unwrap().name;
             assert_eq!(name(&path), name(&paper), "{}: the run keeps the paper config's name", path.display());
         }
+    }
+
+    // Guards what E6 and E7 compare: each config in configs/lite/paper_stack/
+    // is its method's lite config with `stack = "paper"` alone, each in
+    // configs/lite/attribution/ changes exactly one of the settings that
+    // stack owns, to the stack's value, and every one is labelled apart.
+    #[test]
+    fn the_paper_stack_runs_change_what_they_say() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/lite");
+        let stack = toml_files(&root.join("paper_stack"));
+        assert_eq!(stack.len(), 2);
+        for path in &stack {
+            let (base, changed, [label, method]) = changes(&root, path);
+            assert_eq!(changed, ["stack".to_string()].into(), "{} against {base}", path.display());
+            assert_eq!(label, format!("{method}, paper stack"));
+        }
+        let attribution = toml_files(&root.join("attribution"));
+        let mut owned = std::collections::BTreeSet::new();
+        for path in &attribution {
+            let (base, changed, [label, method]) = changes(&root, path);
+            assert_eq!(changed.len(), 1, "{} against {base}: {changed:?}", path.display());
+            let key = changed.into_iter().next().unwrap();
+            let rule = Stack::OWNED.iter().find(|o| o.key == key).expect("a setting the paper stack owns");
+            assert_eq!(settings(path)[&key].as_str(), Some(rule.paper), "{}", path.display());
+            assert_ne!(label, method);
+            owned.insert(key);
+        }
+        assert_eq!(owned.len(), Stack::OWNED.len(), "one attribution run per owned setting");
+    }
+
+    // Guards the preset's ownership: `stack = "paper"` sets both settings,
+    // refuses a file that contradicts it (naming the key), and a run's
+    // config.toml reads back as the same experiment.
+    #[test]
+    fn the_paper_stack_owns_its_settings() {
+        let text = "name = \"x\"\nmethod = \"dense\"\nstack = \"paper\"\n";
+        let config = ExperimentConfig::from_toml(text, "x.toml".as_ref()).unwrap();
+        assert_eq!(config.env.goal_distance, GoalDistance::Gym);
+        assert_eq!(config.networks.target_clip, TargetClip::HerBaselines);
+        assert_eq!(config.networks.normalizer_stats, fmsr_nn::NormalizerStats::StoredEpisodes);
+        let again = ExperimentConfig::from_saved_toml(&config.to_toml().unwrap(), "x.toml".as_ref()).unwrap();
+        assert_eq!(again, config);
+        for (extra, key) in [
+            ("[env]\ngoal_distance = \"full\"\n", "env.goal_distance"),
+            ("[networks]\ntarget_clip = \"reward_bounds\"\n", "networks.target_clip"),
+            ("[networks]\nnormalizer_stats = \"sampled_batches\"\n", "networks.normalizer_stats"),
+        ] {
+            let err = ExperimentConfig::from_toml(&format!("{text}{extra}"), "x.toml".as_ref()).unwrap_err();
+            assert!(matches!(&err, ExperimentError::Config { key: k, .. } if k == key), "{extra}: {err}");
+            assert!(err.to_string().contains("stack"), "{err}");
+        }
+        // The stack's own values are no contradiction, and without the preset each is free.
+        let agreeing = format!("{text}[env]\ngoal_distance = \"gym\"\n");
+        assert!(ExperimentConfig::from_toml(&agreeing, "x.toml".as_ref()).is_ok());
+        let free = "name = \"x\"\nmethod = \"dense\"\n[networks]\ntarget_clip = \"her_baselines\"\n";
+        let free = ExperimentConfig::from_toml(free, "x.toml".as_ref()).unwrap();
+        assert_eq!((free.stack, free.env.goal_distance), (Stack::Fmsr, GoalDistance::Full));
+        assert_eq!(free.label(), "Dense, HER target clip");
     }
 
     // Guards what the ablations of docs/results.md claim: each config in

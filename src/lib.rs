@@ -57,6 +57,7 @@ pub mod provenance;
 pub mod render;
 pub mod report;
 pub mod run;
+pub mod stack;
 pub mod tensorboard;
 
 pub use fmsr_core as core;
