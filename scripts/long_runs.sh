@@ -36,11 +36,47 @@
 # evaluated on the fixed test set (the config's [eval]: 100 episodes at 0.4 rad
 # in the paper's configs) and on the validation episodes (seeds disjoint from
 # the test set's, used to choose a snapshot), copies config, provenance,
-# metrics.csv and those evaluations (trimmed of per-step traces) into
-# docs/results/paper_budget/<run>/, and
-# regenerates the section "The paper's budget" of docs/results.md
-# (scripts/long_runs_record.py). Checkpoints, replay and policies stay in the
-# home until a run ends.
+# metrics.csv and those evaluations (trimmed of per-step traces) into the
+# campaign's records, RECORDS/<run>/ (below), and regenerates the campaign's
+# section in RESULTS (scripts/long_runs_record.py). Checkpoints, replay and
+# policies stay in the home until a run ends.
+#
+# Campaigns. Run names come from the configs' `name`, so two campaigns of the
+# same pair have runs of the same names; each keeps its files apart by its
+# records, its suffix in pretrained/ and its section:
+#
+#   RECORDS      FMSR_LONG_RUNS_RECORDS, default docs/results/paper_stack: a
+#                directory per run, curves.svg, report/; RECORDS_lost/ the
+#                records of earlier runs of the same names lost with their home
+#   SUFFIX       FMSR_LONG_RUNS_SUFFIX, default `_paper_stack`: each run's
+#                policies and rescue point in pretrained/<run>SUFFIX/
+#                (FMSR_LONG_RUNS_PRETRAINED, default pretrained/)
+#   RESULTS      FMSR_LONG_RUNS_RESULTS, default RECORDS/README.md (created,
+#                with a line above the section, when missing): the section,
+#                between the markers `<!-- M:begin ...-->` and `<!-- M:end -->`,
+#                M the records directory's name with `-` for `_` (paper-stack)
+#   HEADING      FMSR_LONG_RUNS_HEADING, the section's heading, default "The
+#                paper's stack at the paper's budget: the egg, Dense+FMSR+IS
+#                against Dense, 400 epochs"
+#
+# The defaults are the current campaign's: the pair of configs/mujoco/egg_dense.toml
+# and egg_dense_fmsr_is.toml under `stack = "paper"`, 400 epochs. The first
+# campaign, the same pair at the paper's budget before that preset, has ended;
+# its records are docs/results/paper_budget/, its policies pretrained/<run>_paper/,
+# its section "The paper's budget" in docs/results.md (where its summary line,
+# between M-summary markers, and pretrained/README.md's index of its policies,
+# between M-policies markers, are written too). It is addressed, to rewrite its
+# section for instance, as
+#
+#   FMSR_LONG_RUNS_SUFFIX=_paper FMSR_LONG_RUNS_RECORDS=docs/results/paper_budget \
+#     FMSR_LONG_RUNS_RESULTS=docs/results.md \
+#     FMSR_LONG_RUNS_HEADING="The paper's budget: the egg, Dense+FMSR+IS against Dense, 400 epochs" \
+#     scripts/long_runs.sh ...
+#
+# The home is one for every campaign: `start` refuses a run name the home holds,
+# so the ended runs of a campaign leave it (moved aside, or FMSR_LONG_RUNS names
+# another home) before the next campaign starts the same names; `record` and
+# `finish` take every run in the home as the campaign's.
 #
 # `finish` refuses until every run has trained its epochs and taken its
 # snapshots. Then, with one release build `--features mujoco` for every
@@ -49,29 +85,42 @@
 # test set, on the validation episodes and on the first TRIALS test episodes
 # (the paper's Table II: 500), on rapier and on MuJoCo, each engine named
 # (`--engine`: `fmsr eval` alone takes the engine the run trained on), into
-# docs/results/paper_budget/<run>/final/; that policy, carrying its evaluations
-# (`fmsr eval --record`), as pretrained/<run>_paper/policy.fmsr, with the
+# RECORDS/<run>/final/; that policy, carrying its evaluations
+# (`fmsr eval --record`), as pretrained/<run>SUFFIX/policy.fmsr, with the
 # snapshot best on the validation episodes beside it (best_on_validation.fmsr,
 # unless it is the final one), test episode 0 rendered on the engine the run
 # trained on and a README; the rescue point and best_so_far.fmsr, which an
-# ended run no longer needs, are removed from pretrained/<run>_paper/ (git's
+# ended run no longer needs, are removed from pretrained/<run>SUFFIX/ (git's
 # history keeps them; the tree would not hold them beside the final policies); then
-# `fmsr report` over those policies into docs/results/paper_budget/report/, and
+# `fmsr report` over those policies into RECORDS/report/, and
 # the section again, now with the comparison with the paper
 # (scripts/long_runs_final.py). Each step skips what an earlier `finish` wrote,
 # so a cut-off `finish` is run again. Overrides (for a trial on a scratch
 # home): FMSR_LONG_RUNS_RECORDS, FMSR_LONG_RUNS_PRETRAINED,
-# FMSR_LONG_RUNS_RESULTS, FMSR_LONG_RUNS_TRIALS.
+# FMSR_LONG_RUNS_RESULTS, FMSR_LONG_RUNS_SUFFIX, FMSR_LONG_RUNS_HEADING,
+# FMSR_LONG_RUNS_TRIALS.
 #
-# Rescue points (issue 53). `record` also writes each run's rescue point,
-# `fmsr rescue RUN --keep $FMSR_LONG_RUNS_KEEP` (default `online`: the online
-# networks, normalisers, RNG, counters and occupancy, no replay, about 8 MB for
-# the paper's networks), into pretrained/<run>_paper/rescue/ (rescue.fmsr,
-# rescue.env: EPOCH, KEEP, WRITTEN; restarts.jsonl stays in the records), and
-# copies the snapshot best on the validation episodes so far to
-# pretrained/<run>_paper/best_so_far.fmsr (best_so_far.env: EPOCH), so a
+# Rescue points (issue 53). `record` also writes the rescue point of each run
+# still training, `fmsr rescue RUN --keep $FMSR_LONG_RUNS_KEEP` (default
+# `half`: the online networks at half precision, normalisers, RNG, counters
+# and occupancy, no replay, about 3.9 MB for the paper's networks; `online`
+# keeps the networks at full precision, about 7.3 MB), into
+# pretrained/<run>SUFFIX/rescue/ (rescue.fmsr, rescue.env: EPOCH, KEEP,
+# WRITTEN, STARTED; restarts.jsonl stays in the records), and copies the
+# snapshot best on the validation episodes so far to
+# pretrained/<run>SUFFIX/best_so_far.fmsr (best_so_far.env: EPOCH), so a
 # policy and the state to go on from are in the repository whatever happens
-# to the home. `resume` restores every recorded run that the home lacks and
+# to the home. Every version written there stays in git's history, so not at
+# every `record`: a run's rescue point is (re)written only while the run has
+# epochs left to train, and only when pretrained/ has none of this run yet or
+# the one there is about a day of training old, the `seconds` of the
+# metrics.csv epochs after its EPOCH adding up to FMSR_LONG_RUNS_RESCUE_EVERY
+# (default 86400) or more (scripts/long_runs_rescue.py). Otherwise `record`
+# leaves it and says so in a line. best_so_far.fmsr follows it: copied when
+# the rescue point is rewritten, or when there is none yet. A home lost
+# costs the training since its runs' rescue points: at most about a day and a
+# session's, also for a run that has trained all its epochs and waits for
+# `finish`. `resume` restores every recorded run that the home lacks and
 # that has a rescue point: a new home entry with the run's config and
 # keeper.env, this work tree's release build as its binary (BIN_NOTE says so:
 # the rescue point's format is checked by its reader), and the rescue point,
@@ -83,21 +132,30 @@
 # `lost` is for a session that finds the home gone (a machine not kept from
 # the session before: every checkpoint, replay buffer, snapshot policy and the
 # binary with it). It refuses for any run the home still holds; for the others
-# it writes docs/results/paper_budget/<run>/lost.env (FOUND: when the loss was
+# it writes RECORDS/<run>/lost.env (FOUND: when the loss was
 # found) and rewrites the section from the records alone, saying the runs were
 # lost and at which epoch their record stops. A later `start` of the same runs
-# moves those records to paper_budget_lost/ as for any earlier run; a `record`
+# moves those records to RECORDS_lost/ as for any earlier run; a `record`
 # that finds the run in the home after all removes the mark.
 set -euo pipefail
 
 repo=$(cd "$(dirname "$0")/.." && pwd)
 home=${FMSR_LONG_RUNS:-$HOME/.local/share/fmsr/long-runs}
-records=${FMSR_LONG_RUNS_RECORDS:-$repo/docs/results/paper_budget}
+# The campaign (see the header): its records, its runs' suffix in pretrained/,
+# its results file and its section's heading.
+records=${FMSR_LONG_RUNS_RECORDS:-$repo/docs/results/paper_stack}
 pretrained=${FMSR_LONG_RUNS_PRETRAINED:-$repo/pretrained}
-results=${FMSR_LONG_RUNS_RESULTS:-$repo/docs/results.md}
+suffix=${FMSR_LONG_RUNS_SUFFIX:-_paper_stack}
+results=${FMSR_LONG_RUNS_RESULTS:-$records/README.md}
+heading=${FMSR_LONG_RUNS_HEADING:-"The paper's stack at the paper's budget: the egg, Dense+FMSR+IS against Dense, 400 epochs"}
+# Paths given relative are from where the keeper was called (its commands cd to the repository).
+absolute() { case $1 in /*) echo "$1" ;; *) echo "$PWD/$1" ;; esac; }
+records=$(absolute "$records") pretrained=$(absolute "$pretrained") results=$(absolute "$results")
 trials=${FMSR_LONG_RUNS_TRIALS:-500}
 # What a rescue point keeps (`fmsr rescue --keep`): online, half, targets or full.
-keep=${FMSR_LONG_RUNS_KEEP:-online}
+keep=${FMSR_LONG_RUNS_KEEP:-half}
+# Seconds of training after which `record` rewrites a run's rescue point.
+rescue_every=${FMSR_LONG_RUNS_RESCUE_EVERY:-86400}
 # Epochs (from 0) after which the policy is exported.
 snapshot_epochs=(0 9 24 49 99 149 199 249 299 349 399)
 # Seconds of training one session gives a run (a session lasts 180 minutes).
@@ -306,9 +364,9 @@ home_binary() {
 }
 
 # Where the rescue point of the run recorded in $1 (its records' directory)
-# lies: beside its policies in pretrained/ (tracked files over 2 MiB belong
-# there), not in its records.
-rescue_dir() { echo "$pretrained/$(basename "$1")_paper/rescue"; }
+# lies: beside its policies in pretrained/<run>SUFFIX/ (tracked files over
+# 2 MiB belong there), not in its records.
+rescue_dir() { echo "$pretrained/$(basename "$1")$suffix/rescue"; }
 
 # Whether `finish` ended recorded run $1 (its records' directory): its final
 # policies are in pretrained/, and it neither needs nor gets a rescue point or a
@@ -416,7 +474,7 @@ status() {
 
 # A record in docs/ of an earlier run of the same name (its home was lost and
 # the run started again, so keeper.env differs) would pass its snapshots'
-# evaluations off as the new run's: move it to docs/results/paper_budget_lost/.
+# evaluations off as the new run's: move it to RECORDS_lost/.
 archive_earlier_record() {
   local dir=$1 out=$2 was
   # The same run keeps its STARTED (a run restored from its rescue point has
@@ -462,42 +520,63 @@ evaluate_snapshots() {
 }
 
 # Each run's rescue point (from its last checkpoint) and its best policy on
-# the validation episodes so far, into the records and pretrained/.
+# the validation episodes so far, into pretrained/, when due: while the run has
+# epochs left to train, when pretrained/ has none of this run yet or a day of
+# training has passed since it (scripts/long_runs_rescue.py, the header).
 rescue_and_best() {
-  local dir name out epoch best pre snap
+  local dir name out epoch best pre snap rescue verdict fresh had args
   for dir in $(runs); do
     name=$(basename "$dir")
     out=$records/$name
     # After `finish` the policies in pretrained/ are the final ones (it removed these).
     finished_out "$out" && continue
     epoch=$(epochs_done "$dir")
-    if [ "$epoch" -gt 0 ] && [ "$(sed -n 's/^EPOCH=//p' "$(rescue_dir "$out")/rescue.env" 2> /dev/null)" != "$epoch" ]; then
-      mkdir -p "$(rescue_dir "$out")"
-      nice -n 5 "$fmsr" rescue "$dir/run" --keep "$keep" --out "$(rescue_dir "$out")/rescue.fmsr.tmp" > "$(rescue_dir "$out")/rescue.log" \
-        || die "$name: fmsr rescue failed: $(cat "$(rescue_dir "$out")/rescue.log")"
-      # The file names the epoch of the checkpoint it read: it must be the one counted.
-      grep -q "epoch $epoch," "$(rescue_dir "$out")/rescue.log" || die "$name: the rescue point is not of epoch $epoch"
-      mv "$(rescue_dir "$out")/rescue.fmsr.tmp" "$(rescue_dir "$out")/rescue.fmsr"
-      printf 'EPOCH=%s\nKEEP=%s\nWRITTEN=%s\n' "$epoch" "$keep" "$(date -u +%FT%TZ)" > "$(rescue_dir "$out")/rescue.env"
-      echo "$name: rescue point of epoch $epoch ($(du -h "$(rescue_dir "$out")/rescue.fmsr" | cut -f1))"
+    rescue=$(rescue_dir "$out")
+    pre=$pretrained/$name$suffix
+    fresh=0
+    if [ "$epoch" -gt 0 ]; then
+      args=(due --metrics "$dir/run/metrics.csv" --rescue "$rescue" --every "$rescue_every"
+            --started "$(sed -n 's/^STARTED=//p' "$dir/keeper.env")")
+      [ "$epoch" -lt "$(planned "$dir")" ] || args+=(--finished)
+      verdict=$(python3 "$repo/scripts/long_runs_rescue.py" "${args[@]}")
+      if [ "${verdict%%:*}" = write ]; then
+        mkdir -p "$rescue"
+        nice -n 5 "$fmsr" rescue "$dir/run" --keep "$keep" --out "$rescue/rescue.fmsr.tmp" > "$rescue/rescue.log" \
+          || die "$name: fmsr rescue failed: $(cat "$rescue/rescue.log")"
+        # The file names the epoch of the checkpoint it read: it must be the one counted.
+        grep -q "epoch $epoch," "$rescue/rescue.log" || die "$name: the rescue point is not of epoch $epoch"
+        mv "$rescue/rescue.fmsr.tmp" "$rescue/rescue.fmsr"
+        printf 'EPOCH=%s\nKEEP=%s\nWRITTEN=%s\nSTARTED=%s\n' "$epoch" "$keep" "$(date -u +%FT%TZ)" \
+          "$(sed -n 's/^STARTED=//p' "$dir/keeper.env")" > "$rescue/rescue.env"
+        echo "$name: rescue point of epoch $epoch ($(du -h "$rescue/rescue.fmsr" | cut -f1)): ${verdict#write: }"
+        fresh=1
+      else
+        echo "$name: ${verdict#skip: }"
+      fi
     fi
     best=$(python3 "$repo/scripts/long_runs_final.py" best "$out" 2> /dev/null || true)
-    pre=$pretrained/${name}_paper
     snap=$dir/snapshots/epoch-$(printf %03d "${best:-0}").fmsr
-    if [ -n "$best" ] && [ -f "$snap" ] && [ "$(sed -n 's/^EPOCH=//p' "$pre/best_so_far.env" 2> /dev/null)" != "$best" ]; then
-      mkdir -p "$pre"
-      cp "$snap" "$pre/best_so_far.fmsr.tmp"
-      mv "$pre/best_so_far.fmsr.tmp" "$pre/best_so_far.fmsr"
-      printf 'EPOCH=%s\nCHOSEN=%s\n' "$best" "\"best on the validation episodes among the snapshots recorded so far\"" \
-        > "$pre/best_so_far.env"
-      echo "$name: best on validation so far, epoch $best, in $pre/best_so_far.fmsr"
+    had=$(sed -n 's/^EPOCH=//p' "$pre/best_so_far.env" 2> /dev/null || true)
+    if [ -n "$best" ] && [ -f "$snap" ] && [ "$had" != "$best" ]; then
+      # With the rescue point, or the first one: each copy stays in git's history too.
+      if [ "$fresh" = 1 ] || [ ! -f "$pre/best_so_far.fmsr" ]; then
+        mkdir -p "$pre"
+        cp "$snap" "$pre/best_so_far.fmsr.tmp"
+        mv "$pre/best_so_far.fmsr.tmp" "$pre/best_so_far.fmsr"
+        printf 'EPOCH=%s\nCHOSEN=%s\n' "$best" "\"best on the validation episodes among the snapshots recorded so far\"" \
+          > "$pre/best_so_far.env"
+        echo "$name: best on validation so far, epoch $best, in $pre/best_so_far.fmsr"
+      else
+        echo "$name: best on validation so far is epoch $best; $pre/best_so_far.fmsr keeps epoch ${had:-?} until the rescue point is rewritten"
+      fi
     fi
   done
 }
 
 write_section() {
   python3 "$repo/scripts/long_runs_record.py" --home "$home" --results "$results" \
-    --records "$records" --pretrained "$pretrained" --commit "$(git -C "$repo" rev-parse --short HEAD)"
+    --records "$records" --pretrained "$pretrained" --commit "$(git -C "$repo" rev-parse --short HEAD)" \
+    --heading "$heading" --suffix "$suffix"
 }
 
 # Builds the work tree's release binary with MuJoCo, the one every evaluation
@@ -572,7 +651,7 @@ finish_run() {
   local dir=$1 name out pre best last
   name=$(basename "$dir")
   out=$records/$name/final
-  pre=$pretrained/${name}_paper
+  pre=$pretrained/$name$suffix
   # Ended by an earlier finish (`finish RUN`, or a bare one run again): its
   # best snapshot may be gone with the home, and best_so_far.fmsr with it.
   if finished_out "$records/$name"; then
@@ -604,7 +683,8 @@ finish_run() {
   fi
   # Test episode 0 on the engine the run trained on (`fmsr render`'s default).
   compgen -G "$pre/render/episode-0-*.gif" > /dev/null || nice -n 5 "$fmsr" render "$pre"
-  python3 "$repo/scripts/long_runs_final.py" readme "$records/$name" "$pre" --commit "$(git rev-parse --short HEAD)"
+  python3 "$repo/scripts/long_runs_final.py" readme "$records/$name" "$pre" --commit "$(git rev-parse --short HEAD)" \
+    --heading "$heading" --results "$results"
   # The run has ended: its rescue point and best policy so far are superseded
   # by policy.fmsr and best_on_validation.fmsr (history keeps them).
   rm -rf "$pre/rescue" "$pre/best_so_far.fmsr" "$pre/best_so_far.env"
@@ -646,10 +726,10 @@ finish() {
   evaluate_snapshots
   for dir in "${chosen[@]}"; do
     finish_run "$dir"
-    [ $# -eq 0 ] || policies+=("$pretrained/$(basename "$dir")_paper")
+    [ $# -eq 0 ] || policies+=("$pretrained/$(basename "$dir")$suffix")
   done
   if [ $# -eq 0 ]; then
-    for out in $(recorded); do policies+=("$pretrained/$(basename "$out")_paper"); done
+    for out in $(recorded); do policies+=("$pretrained/$(basename "$out")$suffix"); done
     nice -n 5 "$fmsr" report "${policies[@]}" --out "$records/report"
   fi
   write_section
@@ -676,7 +756,7 @@ lost() {
     name=$(basename "$out")
     # A run `finish` ended needs no home: its policies are in pretrained/.
     if finished_out "$out"; then
-      echo "$name: finished, not lost (its final policies are in $pretrained/${name}_paper)"
+      echo "$name: finished, not lost (its final policies are in $pretrained/$name$suffix)"
     elif [ -f "$out/lost.env" ]; then
       echo "$name: marked lost before ($(cat "$out/lost.env"))"
     else

@@ -6,12 +6,19 @@ Used by `scripts/long_runs.sh finish` and by scripts/long_runs_record.py:
     long_runs_final.py best RECORDS/<run>
         prints the snapshot epoch best on the validation episodes (ties: the
         earlier), the one rule by which a snapshot is chosen
-    long_runs_final.py readme RECORDS/<run> PRETRAINED/<run>_paper --commit C
-        writes the README of the run's exported policies
+    long_runs_final.py readme RECORDS/<run> PRETRAINED/<run><suffix> --commit C [--heading H] [--results R]
+        writes the README of the run's exported policies; H is the heading of
+        the campaign's section (default HEADING), R the file it is in
 
-and, imported by the record script, `section_lines`: the part of the section
-"The paper's budget" that compares the ended runs with the paper's Tables I
+and, imported by the record script, `section_lines`: the part of the
+campaign's section that compares the ended runs with the paper's Tables I
 and II, row by row, on each engine.
+
+A campaign of the keeper is one pair of runs with its records, its policies in
+pretrained/<run><suffix>/ and its section under its own heading. The first,
+the paper's budget, is addressed with PAPER_BUDGET_HEADING and the suffix
+`_paper` (its section is in docs/results.md); the defaults, HEADING and
+SUFFIX, are the second's, the paper's stack at the paper's budget.
 
 The paper's numbers (egg and block rows of Tables I and II) are written out
 below as printed. Only the success rates and drop counts are on a common
@@ -30,6 +37,7 @@ import argparse
 import csv
 import json
 import math
+import os
 import statistics
 import sys
 import tomllib
@@ -83,6 +91,28 @@ FIELDS = {
 # run's snapshots are chosen on MuJoCo's.
 FINALS = ["test-rapier", "validation-rapier", "test-mujoco", "validation-mujoco", "trials-rapier", "trials-mujoco"]
 ENGINES = ("rapier", "mujoco")
+
+# The campaigns (scripts/long_runs.sh): the section's heading and the suffix of
+# the runs' directories in pretrained/. The defaults are the current campaign's.
+PAPER_BUDGET_HEADING = "The paper's budget: the egg, Dense+FMSR+IS against Dense, 400 epochs"
+HEADING = "The paper's stack at the paper's budget: the egg, Dense+FMSR+IS against Dense, 400 epochs"
+SUFFIX = "_paper_stack"
+RESULTS = "docs/results/paper_stack/README.md"
+
+
+def short_name(heading):
+    """The campaign's name in running text: its heading before the colon (`The paper's budget`)."""
+    return heading.split(":", 1)[0]
+
+
+def lower_first(text):
+    return text[:1].lower() + text[1:]
+
+
+def at(heading):
+    """The campaign's name as a sentence's opening: `At the paper's budget`, `With the paper's stack at ...`."""
+    name = lower_first(short_name(heading))
+    return ("At " if name.startswith("the paper's budget") else "With ") + name
 
 
 def wilson(k, n):
@@ -434,7 +464,7 @@ def section_lines(finals, records_rel, pretrained_rel):
     return lines
 
 
-def summary_bullet(finals, anchor):
+def summary_bullet(finals, anchor, heading=HEADING):
     """The summary's line on the long runs once `finish` ran: the final policies' test success and drops."""
     cells = []
     # On the engine each run trained on (the pair's: MuJoCo, the paper's engine).
@@ -442,18 +472,18 @@ def summary_bullet(finals, anchor):
     for f in finals:
         t, n = test(f), f["finals"][f"trials-{f['engine']}"]
         cells.append(f"{f['label']} {pct(success(t))} ({n['outcomes']['drop']} drops in {n['episodes']} trials)")
-    text = (f"- **At the paper's budget ({finals[0]['epochs']} epochs), egg, seed 0, ended:** the policies after "
+    text = (f"- **{at(heading)} ({finals[0]['epochs']} epochs), egg, seed 0, ended:** the policies after "
             f"the last epoch reach, on the fixed test set on {trained_on(finals)} (the engine they trained on), "
             + " against ".join(cells))
     if len(finals) == 2:
         text += f"; difference {pts(newcombe(success(test(finals[0])), success(test(finals[1]))))}"
     paper = "; ".join(f"{f['label']} {PAPER_TABLE1[f['task']][f['label']][0]} %" for f in finals if f["label"] in PAPER_TABLE1[f["task"]])
-    return f"{text}. The paper: {paper}. Row by row against the paper: [the paper's budget](#{anchor}).\n"
+    return f"{text}. The paper: {paper}. Row by row against the paper: [{lower_first(short_name(heading))}](#{anchor}).\n"
 
 
-def pretrained_index(finals):
-    """The lines of pretrained/README.md on the long runs' policies."""
-    lines = ["At the paper's budget (issues 37 and 53, `scripts/long_runs.sh finish`; egg, seed 0, the paper's config), "
+def pretrained_index(finals, suffix=SUFFIX, heading=HEADING):
+    """The lines of pretrained/README.md on the long runs' policies (in pretrained/<run><suffix>/)."""
+    lines = [f"{at(heading)} (issues 37 and 53, `scripts/long_runs.sh finish`; egg, seed 0, the paper's config), "
              "the policies after the last epoch, no selection; test and validation on the engine each trained on, "
              "then the test set on the other:", "",
              "| Policy | Configuration | Epochs | Trained on | Test success (100) | Validation | Test success, other engine (100) | "
@@ -463,13 +493,15 @@ def pretrained_index(finals):
         home, other = trained_first(f["engine"])
         n = fin[f"trials-{home}"]
         best_cell = f"epoch {f['best']}: {pct(success(f['best_test']))}" if f["best_test"] else "n/a"
-        lines.append(f"| [`{f['name']}_paper`]({f['name']}_paper/README.md) | {f['label']}, 6 agents | {f['epochs']} | "
+        lines.append(f"| [`{f['name']}{suffix}`]({f['name']}{suffix}/README.md) | {f['label']}, 6 agents | {f['epochs']} | "
                      f"{shown(home)} | **{pct(success(fin[f'test-{home}']))}** | {pct(success(fin[f'validation-{home}']))} | "
                      f"{shown(other)}: {pct(success(fin[f'test-{other}']))} | {n['outcomes']['drop']} of {n['episodes']} | {best_cell} |")
     return "\n".join(lines) + "\n"
 
 
-def readme(run_records, out, commit):
+def readme(run_records, out, commit, heading=HEADING, results=RESULTS):
+    """Writes out/README.md, the README of a run's final policies; `results`: the file that holds the section
+    headed `heading`, as a path from the repository's root."""
     f = load_final(run_records)
     if f is None:
         sys.exit(f"{run_records}: the final evaluations are not all there (run `scripts/long_runs.sh finish`)")
@@ -496,19 +528,19 @@ def readme(run_records, out, commit):
     restart_line = ("" if not restarts else
                     " Restarted from its rescue point at epoch" + ("s " if len(restarts) > 1 else " ")
                     + ", ".join(str(r.get("restart", {}).get("epoch", "?")) for r in restarts)
-                    + " (the home was lost; replay refilled, `docs/results.md` says what each lost).")
+                    + f" (the home was lost; replay refilled, `{results}` says what each lost).")
     # The binary the run ended with: its own commit's, or a restore's build (BIN_NOTE says which).
     note = env.get("BIN_NOTE", "").strip().strip('"')
     exporter = (f"the binary the run ended with (`{Path(env['BIN']).name}`" + (f": {note})" if note else ")")
                 if env.get("BIN") else "the run's own binary")
-    text = f"""# Egg, six agents, {f['label']}: the paper's budget
+    text = f"""# Egg, six agents, {f['label']}: {lower_first(short_name(heading))}
 
 The long run of issues 37 and 53 (`scripts/long_runs.sh`): `{env.get('CONFIG', '?')}`, seed 0, trained on {shown(home)}, the paper's config
 with one stepping thread and one learner thread, {f['epochs']} epochs ({f['env_steps']} env steps with the epochs'
 evaluation episodes), started
 {env.get('STARTED', '?')} with the release binary of commit `{env.get('COMMIT', '?')[:10]}`, on the project's
-development VM (2 cores, no GPU), one core per run.{restart_line} Learning curve and snapshots: `docs/results.md`,
-section "The paper's budget".
+development VM (2 cores, no GPU), one core per run.{restart_line} Learning curve and snapshots: `{results}`,
+section "{short_name(heading)}".
 
 `policy.fmsr` is the policy after the last epoch (no selection), exported by {exporter} and
 evaluated with the build of `{commit}` (`--features mujoco`), its evaluations written into the file
@@ -537,6 +569,9 @@ def main():
     r.add_argument("run_records", type=Path)
     r.add_argument("out", type=Path)
     r.add_argument("--commit", required=True)
+    r.add_argument("--heading", default=HEADING, help="the heading of the campaign's section")
+    r.add_argument("--results", type=Path, default=None,
+                   help="the file that holds the section (default: the repository's " + RESULTS + ")")
     a = ap.parse_args()
     if a.cmd == "best":
         k = best(a.run_records)
@@ -544,7 +579,9 @@ def main():
             sys.exit(f"{a.run_records}: no snapshot evaluated on the validation episodes")
         print(k)
     else:
-        readme(a.run_records, a.out, a.commit)
+        root = Path(__file__).resolve().parent.parent
+        results = RESULTS if a.results is None else os.path.relpath(a.results.resolve(), root)
+        readme(a.run_records, a.out, a.commit, a.heading, results)
 
 
 if __name__ == "__main__":

@@ -1,13 +1,27 @@
 #!/usr/bin/env python3
-"""Writes the section "The paper's budget" of docs/results.md from the long runs.
+"""Writes the section of a campaign of the long runs from its records.
 
 Called by `scripts/long_runs.sh record` after it has copied each run's small
-files into docs/results/paper_budget/<run>/ and evaluated its new snapshots.
-It reads only those copies and the keeper's home (for whether a driver is
-alive; a run marked lost by `scripts/long_runs.sh lost` has a lost.env beside
-its copies, and no home), and replaces what lies between the section's two
-markers in docs/results.md (or appends the section). It also draws the learning curves
-side by side as an SVG, docs/results/paper_budget/curves.svg.
+files into the campaign's records (RECORDS/<run>/, by default
+docs/results/paper_stack/<run>/) and evaluated its new snapshots. It reads
+only those copies and the keeper's home (for whether a driver is alive; a run
+marked lost by `scripts/long_runs.sh lost` has a lost.env beside its copies,
+and no home), and replaces what lies between the section's two markers in the
+results file (`--results`, by default RECORDS/README.md, created when missing;
+the section is appended when the file has no markers). It also draws the
+learning curves side by side as an SVG, RECORDS/curves.svg.
+
+The campaign is named by `--heading` (the section's heading; default the
+paper's stack at the paper's budget), `--suffix` (its runs' directories in
+pretrained/, <run><suffix>; default `_paper_stack`) and its markers, by default
+the records directory's name with `-` for `_` (`paper-stack`, and for the
+first campaign, docs/results/paper_budget, `paper-budget`): the section's
+`<!-- M:begin ... -->`, the summary's `M-summary` and pretrained/README.md's
+`M-policies`, each written only where its markers are. The first campaign,
+as it was written:
+
+    long_runs_record.py --records docs/results/paper_budget --results docs/results.md --suffix _paper \
+        --heading "The paper's budget: the egg, Dense+FMSR+IS against Dense, 400 epochs" ...
 
 Success intervals are 95 % Wilson intervals, and differences Newcombe's hybrid
 score intervals (long_runs_final.py's, the formulas of fmsr_core::interval).
@@ -29,8 +43,9 @@ import long_runs_restarts
 from long_runs_final import (angle_cell, final_angles, newcombe as difference, pct, pts, training_threshold, wilson,
                               within_label)
 
-BEGIN = "<!-- paper-budget:begin (written by scripts/long_runs.sh record) -->"
-END = "<!-- paper-budget:end -->"
+# The markers of a campaign's parts, from its markers' name (`paper-budget`, `paper-stack`).
+BEGIN = "<!-- {}:begin (written by scripts/long_runs.sh record) -->"
+END = "<!-- {}:end -->"
 LABELS = {"egg_dense_fmsr_is": "Dense+FMSR+IS", "egg_dense": "Dense"}
 
 
@@ -247,11 +262,12 @@ def load_lost(lost_dir):
     return out
 
 
-def lost_runs(lost, records_rel):
-    """The lines that say which earlier runs were lost, how far they got and where their record is."""
+def lost_runs(lost, records_rel, rel=None):
+    """The lines that say which earlier runs were lost, how far they got and where their record is
+    (`rel`: their directory, by default `records_rel` + `_lost`)."""
     if not lost:
         return []
-    rel = records_rel.rstrip("/") + "_lost"
+    rel = rel or records_rel.rstrip("/") + "_lost"
     lines = ["", "Earlier runs of these configurations, lost with their machine between two sessions and started "
              "again (their records are kept as they were):", ""]
     for r in lost:
@@ -301,7 +317,9 @@ def latest_orderings(runs, lost=False, ended=False):
             long_runs_final.drops_row(ta, tb, ta["task"], labels, f"test, {ta['episodes']}")]
 
 
-HEADING = "The paper's budget: the egg, Dense+FMSR+IS against Dense, 400 epochs"
+HEADING = long_runs_final.HEADING
+# Above the section in a results file the keeper creates.
+INTRO = "The long runs of `scripts/long_runs.sh`: the section below is written by its `record` and `finish`."
 
 
 def anchor(heading):
@@ -328,9 +346,11 @@ def lost_note(runs, earlier):
             "can be evaluated, and none of it is a result at the paper's budget.", ""]
 
 
-def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
-    """The section's lines between its markers; `finals` are the runs' final evaluations, or None before `finish`."""
-    lines = [f"## {HEADING}", ""]
+def section(runs, finals, commit, records_rel, pretrained_rel, lost=(), heading=HEADING, suffix=long_runs_final.SUFFIX,
+            lost_rel=None):
+    """The section's lines between its markers; `finals` are the runs' final evaluations, or None before `finish`;
+    `heading` names the campaign, `suffix` its runs' directories in pretrained/, `lost_rel` its earlier runs' records."""
+    lines = [f"## {heading}", ""]
     gone = any(r["lost"] for r in runs)
     configs = [r["env"].get("CONFIG", "?") for r in runs]
     # From each run's config.toml, not its file name: rapier when it names none (the default).
@@ -419,7 +439,7 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
             when = " when the run was lost" if r["lost"] else "" if finals else " so far"
             lines.append(f"- {r['label']}: the snapshot best on validation{when} is epoch {best}, test success {pct(t['interval']) if t else 'n/a'}.")
     lines += latest_orderings(runs, gone, ended=bool(finals))
-    lines += lost_runs(lost, records_rel)
+    lines += lost_runs(lost, records_rel, lost_rel)
     if finals:
         lines += long_runs_final.section_lines(finals, records_rel, pretrained_rel)
     elif gone:
@@ -428,7 +448,7 @@ def section(runs, finals, commit, records_rel, pretrained_rel, lost=()):
     else:
         # Runs ended ahead of the other (`finish RUN`): their part is written, the comparison waits.
         ahead = [f"{r['label']} (in [`{records_rel}/{r['dir'].name}/final/`]({records_rel}/{r['dir'].name}/final/) "
-                 f"and [`{pretrained_rel}/{r['dir'].name}_paper/`]({pretrained_rel}/{r['dir'].name}_paper/))"
+                 f"and [`{pretrained_rel}/{r['dir'].name}{suffix}/`]({pretrained_rel}/{r['dir'].name}{suffix}/))"
                  for r in runs if (r["dir"] / "final" / "finished.env").is_file()]
         lines += ["", "Not yet: the final evaluation of issue 37, item 4 (500 episodes, MuJoCo, `fmsr report`, the paper's rows), "
                   "which waits for both runs to reach 400 epochs (`scripts/long_runs.sh finish`)"
@@ -465,18 +485,18 @@ def precision_table(runs, epochs):
             "|" + "---|" * (2 + 2 * len(runs))] + rows
 
 
-SUMMARY_BEGIN = "<!-- paper-budget-summary:begin (written by scripts/long_runs.sh record) -->"
-SUMMARY_END = "<!-- paper-budget-summary:end -->"
-PRETRAINED_BEGIN = "<!-- paper-budget-policies:begin (written by scripts/long_runs.sh finish) -->"
-PRETRAINED_END = "<!-- paper-budget-policies:end -->"
+SUMMARY_BEGIN = "<!-- {}-summary:begin (written by scripts/long_runs.sh record) -->"
+SUMMARY_END = "<!-- {}-summary:end -->"
+PRETRAINED_BEGIN = "<!-- {}-policies:begin (written by scripts/long_runs.sh finish) -->"
+PRETRAINED_END = "<!-- {}-policies:end -->"
 
 
-def summary_bullet(runs, finals, link):
+def summary_bullet(runs, finals, link, heading=HEADING):
     """The line of docs/results.md's summary on the long runs: how far, and the latest snapshot's test success."""
     if not runs:
         return ""
     if finals:
-        return long_runs_final.summary_bullet(finals, link)
+        return long_runs_final.summary_bullet(finals, link, heading)
     done = min(len(r["metrics"]) for r in runs)
     k = latest_common_snapshot(runs)
     if any(r["lost"] for r in runs):
@@ -487,7 +507,8 @@ def summary_bullet(runs, finals, link):
         state = f"lost with their machine; recorded to {stops} epochs"
     else:
         state = f"in progress: {done} of {runs[0]['planned']} epochs"
-    text = f"- **Towards the paper's budget ({state}), egg, seed 0:** "
+    name = long_runs_final.lower_first(long_runs_final.short_name(heading))
+    text = f"- **Towards {name} ({state}), egg, seed 0:** "
     if k is not None:
         cells = [f"{r['label']} {pct(dict(r['snapshots'])[k]['test']['interval'])} ({dict(r['snapshots'])[k]['test']['drops']} drops)"
                  for r in runs]
@@ -507,7 +528,7 @@ def summary_bullet(runs, finals, link):
                  f"Dense+FMSR+IS drops {long_runs_final.PAPER_TABLE2['egg']['Dense+FMSR+IS'][2]} of 500 trials.")
     else:
         text += "no snapshot evaluated yet."
-    return f"{text} Details: [the paper's budget](#{link}).\n"
+    return f"{text} Details: [{name}](#{link}).\n"
 
 
 def replace_between(text, begin, end, new):
@@ -525,7 +546,13 @@ def main():
     ap.add_argument("--records", type=Path, required=True)
     ap.add_argument("--pretrained", type=Path, required=True)
     ap.add_argument("--commit", required=True)
+    ap.add_argument("--heading", default=HEADING, help="the campaign's section's heading")
+    ap.add_argument("--suffix", default=long_runs_final.SUFFIX, help="of the runs' directories in pretrained/")
+    ap.add_argument("--markers", default=None,
+                    help="the name in the markers (default: the records directory's, `_` as `-`)")
     a = ap.parse_args()
+    markers = a.markers or a.records.name.replace("_", "-")
+    begin, end = BEGIN.format(markers), END.format(markers)
     # A run's records hold its keeper.env; `report/` (written by `finish`) is no run.
     found = [p.name for p in a.records.iterdir() if (p / "keeper.env").is_file()]
     names = [n for n in LABELS if n in found] + sorted(n for n in found if n not in LABELS)
@@ -533,20 +560,24 @@ def main():
     svg_curves(runs, a.records / "curves.svg")
     rel = os.path.relpath(a.records, a.results.parent)
     pretrained_rel = os.path.relpath(a.pretrained, a.results.parent)
-    text = a.results.read_text()
-    lost = load_lost(a.records.parent / (a.records.name + "_lost"))
+    # A campaign's own results file starts as one line above the section.
+    text = a.results.read_text() if a.results.exists() else f"{INTRO}\n"
+    lost_dir = a.records.parent / (a.records.name + "_lost")
+    lost = load_lost(lost_dir)
     # The final evaluations, once `finish` wrote them for every run.
     finals = [long_runs_final.load_final(r["dir"]) for r in runs]
     finals = finals if finals and all(finals) else None
-    new = section(runs, finals, a.commit, rel, pretrained_rel, lost)
-    text = replace_between(text, BEGIN, END, new) or f"{text.rstrip()}\n\n{BEGIN}\n{new}{END}\n"
-    text = replace_between(text, SUMMARY_BEGIN, SUMMARY_END, summary_bullet(runs, finals, anchor(HEADING))) or text
+    new = section(runs, finals, a.commit, rel, pretrained_rel, lost, a.heading, a.suffix,
+                  os.path.relpath(lost_dir, a.results.parent))
+    text = replace_between(text, begin, end, new) or f"{text.rstrip()}\n\n{begin}\n{new}{end}\n"
+    text = replace_between(text, SUMMARY_BEGIN.format(markers), SUMMARY_END.format(markers),
+                           summary_bullet(runs, finals, anchor(a.heading), a.heading)) or text
     write_atomic(a.results, text)
     print(f"wrote the section into {a.results} and {a.records / 'curves.svg'}")
     index = a.pretrained / "README.md"
     if index.exists() and finals:
-        new_index = replace_between(index.read_text(), PRETRAINED_BEGIN, PRETRAINED_END,
-                                    long_runs_final.pretrained_index(finals))
+        new_index = replace_between(index.read_text(), PRETRAINED_BEGIN.format(markers), PRETRAINED_END.format(markers),
+                                    long_runs_final.pretrained_index(finals, a.suffix, a.heading))
         if new_index is not None:
             write_atomic(index, new_index)
             print(f"wrote the long runs' policies into {index}")

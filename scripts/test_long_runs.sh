@@ -3,12 +3,15 @@
 # two tiny egg runs (Dense+FMSR+IS and Dense, 2 epochs of 2 episodes) are
 # started, must both end with their snapshot, `resume` must leave them alone,
 # a driver must wait for a lock held an instant (and train a third epoch),
-# `lost` must mark them only once their home is gone, `resume` must restore
-# them from their rescue points when it is,
+# `lost` must mark them only once their home is gone, `record` must write
+# rescue points only for runs with epochs left and keep them until a day of
+# training has passed, `resume` must restore the runs from them when the home is gone,
 # `finish` must refuse while a run is unfinished, `finish RUN` must end one
 # run ahead of the other, and the bare `finish` then write every final
 # evaluation (each on the engine its name says), policy, README, report and the
 # section with the paper's rows, and drop the rescue points of ended runs.
+# The records, policies and section are a campaign's (the header of
+# scripts/long_runs.sh): here the current one's suffix, heading and markers.
 # Both runs train on MuJoCo, as the paper-budget pair does: `fmsr eval` without
 # `--engine` takes the trained-on engine, and until 2026-11-29 `finish` relied
 # on it being rapier. Nothing of the real home, docs/ or pretrained/ is touched.
@@ -25,7 +28,8 @@ repo=$(cd "$(dirname "$0")/.." && pwd)
 scratch=$(mktemp -d)
 # The drivers of a failed test must not outlive it.
 trap 'pkill -f "$scratch/home" 2> /dev/null || true; rm -rf "$scratch"' EXIT
-export FMSR_LONG_RUNS=$scratch/home FMSR_LONG_RUNS_RECORDS=$scratch/records \
+# The records directory's name gives the markers of the section, summary and policy index: paper-stack.
+export FMSR_LONG_RUNS=$scratch/home FMSR_LONG_RUNS_RECORDS=$scratch/paper_stack \
   FMSR_LONG_RUNS_PRETRAINED=$scratch/pretrained FMSR_LONG_RUNS_RESULTS=$scratch/results.md \
   FMSR_LONG_RUNS_TRIALS=20
 keeper=$repo/scripts/long_runs.sh
@@ -62,10 +66,10 @@ episodes = 10
 threshold = 0.4
 EOF
 done
-printf '# Results\n\n<!-- paper-budget-summary:begin (written by scripts/long_runs.sh record) -->\n<!-- paper-budget-summary:end -->\n' \
+printf '# Results\n\n<!-- paper-stack-summary:begin (written by scripts/long_runs.sh record) -->\n<!-- paper-stack-summary:end -->\n' \
   > "$scratch/results.md"
 mkdir -p "$scratch/pretrained"
-printf '# Policies\n\n<!-- paper-budget-policies:begin (written by scripts/long_runs.sh finish) -->\n<!-- paper-budget-policies:end -->\n' \
+printf '# Policies\n\n<!-- paper-stack-policies:begin (written by scripts/long_runs.sh finish) -->\n<!-- paper-stack-policies:end -->\n' \
   > "$scratch/pretrained/README.md"
 
 "$keeper" start "$scratch/egg_dense_fmsr_is.toml" "$scratch/egg_dense.toml"
@@ -107,9 +111,14 @@ mv "$FMSR_LONG_RUNS/egg_dense" "$scratch/egg_dense.kept"
 "$keeper" lost 2> "$scratch/refused" && fail "lost ran while the home holds egg_dense_fmsr_is"
 [ ! -e "$FMSR_LONG_RUNS_RECORDS/egg_dense/lost.env" ] || fail "lost marked egg_dense before it refused"
 mv "$scratch/egg_dense.kept" "$FMSR_LONG_RUNS/egg_dense"
-# Records without rescue points (runs recorded before 2026-11-27): `resume`
-# cannot restore them and points at `lost`. (`record` writes them again below.)
-for run in egg_dense_fmsr_is egg_dense; do rm -r "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/rescue"; done
+# Both runs had trained all their epochs at that `record`: it wrote no rescue
+# point (`finish` ends them), only the best snapshots so far. Records without
+# rescue points: `resume` cannot restore them and points at `lost`. (`record`
+# writes them below, once the runs have epochs left.)
+for run in egg_dense_fmsr_is egg_dense; do
+  [ ! -e "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/rescue" ] || fail "$run: record wrote a rescue point of a run that had trained all its epochs"
+  [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/best_so_far.fmsr" ] || fail "$run: record kept no best policy so far (the first is copied at once)"
+done
 mv "$FMSR_LONG_RUNS" "$scratch/home.kept"
 "$keeper" resume > "$scratch/resumed"
 grep -q "not in the home: egg_dense egg_dense_fmsr_is; if the home was lost" "$scratch/resumed" || fail "resume did not point at lost: $(cat "$scratch/resumed")"
@@ -121,25 +130,36 @@ grep -q '^\*\*Lost before the end.\*\* The keeper' "$scratch/results.md" || fail
 grep -q "lost with their machine; recorded to 2 of 2 and 3 of 3 epochs" "$scratch/results.md" || fail "the summary line does not say the runs were lost"
 "$keeper" resume | grep -q "not in the home" && fail "resume still points at runs marked lost"
 mv "$scratch/home.kept" "$FMSR_LONG_RUNS"
+# Each run one epoch short of its plan (a session ended them there): `record`
+# writes their rescue points, pretrained/ having none.
+sed -i 's/^EPOCHS=2$/EPOCHS=3/' "$FMSR_LONG_RUNS/egg_dense_fmsr_is/keeper.env"
+sed -i 's/^EPOCHS=3$/EPOCHS=4/' "$FMSR_LONG_RUNS/egg_dense/keeper.env"
 "$keeper" record
 [ ! -e "$FMSR_LONG_RUNS_RECORDS/egg_dense/lost.env" ] || fail "record left the mark on a run the home holds"
 grep -q "Lost before" "$scratch/results.md" && fail "the section still says the runs were lost"
+# A rescue point is rewritten after a day of training, not at every `record`.
+for run in egg_dense_fmsr_is egg_dense; do cp "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/rescue/rescue.env" "$scratch/$run.rescue.env"; done
+"$keeper" record > "$scratch/recorded"
+for run in egg_dense_fmsr_is egg_dense; do
+  cmp -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/rescue/rescue.env" "$scratch/$run.rescue.env" || fail "$run: record rewrote a rescue point with no training since"
+  grep -q "^$run: rescue point of epoch [0-9]* kept: 0.0 h of training since it" "$scratch/recorded" || fail "$run: record does not say it kept the rescue point: $(cat "$scratch/recorded")"
+done
 
 # A home lost for good (issue 53): `record` wrote each run's rescue point and
 # its best policy so far; with the home gone, `resume` restores both runs from
 # their rescue points (this tree's build), the drivers restart from them, and
 # the restart is in the run's restarts.jsonl, the records and the section.
 for run in egg_dense_fmsr_is egg_dense; do
-  [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/rescue/rescue.fmsr" ] || fail "$run: record wrote no rescue point"
-  grep -q '^KEEP=online$' "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/rescue/rescue.env" || fail "$run: no rescue.env"
-  [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/best_so_far.fmsr" ] || fail "$run: record kept no best policy so far"
+  [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/rescue/rescue.fmsr" ] || fail "$run: record wrote no rescue point"
+  grep -q '^KEEP=half$' "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/rescue/rescue.env" || fail "$run: no rescue.env"
+  [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/best_so_far.fmsr" ] || fail "$run: record kept no best policy so far"
 done
 mv "$FMSR_LONG_RUNS" "$scratch/home.lost"
 "$keeper" resume > "$scratch/resumed"
 [ "$(grep -c "restored from its rescue point" "$scratch/resumed")" = 2 ] || fail "resume did not restore both runs: $(cat "$scratch/resumed")"
 # It says where the drivers restart, not "epoch 0" (no checkpoint yet; fixed 2026-12-01).
 for run in egg_dense_fmsr_is egg_dense; do
-  epoch=$(sed -n 's/^EPOCH=//p' "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/rescue/rescue.env")
+  epoch=$(sed -n 's/^EPOCH=//p' "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/rescue/rescue.env")
   grep -q "^$run: started from its rescue point of epoch $epoch " "$scratch/resumed" || fail "resume does not say where $run restarts (epoch $epoch): $(cat "$scratch/resumed")"
 done
 for _ in $(seq 120); do
@@ -154,7 +174,7 @@ for run in egg_dense_fmsr_is egg_dense; do
   grep -q '^BIN_NOTE=' "$FMSR_LONG_RUNS/$run/keeper.env" || fail "$run: keeper.env does not say which binary restored it"
 done
 "$keeper" record
-grep -q "Restarted at epoch 2 from its rescue point (kept \`online\`" "$scratch/results.md" || fail "the section does not show the restart"
+grep -q "Restarted at epoch 2 from its rescue point (kept \`half\`" "$scratch/results.md" || fail "the section does not show the restart"
 # And what it cost, n/a here: 10 epochs on either side are not trained (the table since 2026-12-01).
 grep -q "^| Dense+FMSR+IS | 2 | n/a | n/a |" "$scratch/results.md" || fail "the section has no row for the restart in its restart table"
 # What it lost is the buffer's content, not every episode of the run (fixed 2026-11-29).
@@ -179,18 +199,18 @@ wait
 records=$FMSR_LONG_RUNS_RECORDS pre=$FMSR_LONG_RUNS_PRETRAINED
 "$keeper" finish egg_nope 2> "$scratch/refused" && fail "finish ran for a run the home lacks"
 grep -q "no run egg_nope in " "$scratch/refused" || fail "finish egg_nope refused for another reason: $(cat "$scratch/refused")"
-sed -i 's/^EPOCHS=2$/EPOCHS=3/' "$FMSR_LONG_RUNS/egg_dense_fmsr_is/keeper.env"
+sed -i 's/^EPOCHS=3$/EPOCHS=4/' "$FMSR_LONG_RUNS/egg_dense_fmsr_is/keeper.env"
 "$keeper" finish egg_dense_fmsr_is 2> "$scratch/refused" && fail "finish ran for a run that has not ended"
-grep -q "not every run named has ended: egg_dense_fmsr_is (2 of 3 epochs)" "$scratch/refused" || fail "finish egg_dense_fmsr_is refused for another reason: $(cat "$scratch/refused")"
+grep -q "not every run named has ended: egg_dense_fmsr_is (3 of 4 epochs)" "$scratch/refused" || fail "finish egg_dense_fmsr_is refused for another reason: $(cat "$scratch/refused")"
 "$keeper" finish 2> "$scratch/refused" && fail "finish ran for both with one not ended"
 grep -q "finish RUN\.\.\.\` finishes those that have" "$scratch/refused" || fail "finish does not point at finish RUN: $(cat "$scratch/refused")"
-sed -i 's/^EPOCHS=3$/EPOCHS=2/' "$FMSR_LONG_RUNS/egg_dense_fmsr_is/keeper.env"
+sed -i 's/^EPOCHS=4$/EPOCHS=3/' "$FMSR_LONG_RUNS/egg_dense_fmsr_is/keeper.env"
 "$keeper" finish egg_dense
 grep -q '^FINISHED=' "$records/egg_dense/final/finished.env" || fail "finish egg_dense did not mark it finished"
-[ -s "$pre/egg_dense_paper/policy.fmsr" ] || fail "finish egg_dense wrote no final policy"
-[ ! -e "$pre/egg_dense_paper/rescue" ] || fail "finish egg_dense kept its rescue point"
+[ -s "$pre/egg_dense_paper_stack/policy.fmsr" ] || fail "finish egg_dense wrote no final policy"
+[ ! -e "$pre/egg_dense_paper_stack/rescue" ] || fail "finish egg_dense kept its rescue point"
 [ ! -e "$records/egg_dense_fmsr_is/final" ] || fail "finish egg_dense evaluated egg_dense_fmsr_is"
-[ -s "$pre/egg_dense_fmsr_is_paper/rescue/rescue.fmsr" ] || fail "finish egg_dense dropped egg_dense_fmsr_is's rescue point"
+[ -s "$pre/egg_dense_fmsr_is_paper_stack/rescue/rescue.fmsr" ] || fail "finish egg_dense dropped egg_dense_fmsr_is's rescue point"
 [ ! -e "$records/report" ] || fail "finish egg_dense wrote the report"
 grep -q '### At the end: against the paper' "$scratch/results.md" && fail "the section compares the final policies before both ended"
 grep -q "the final evaluations and policies of the runs that have ended are written: Dense (in " "$scratch/results.md" || fail "the section does not say Dense's final evaluations are written"
@@ -213,7 +233,7 @@ for _ in $(seq 120); do
   sleep 1
 done
 "$keeper" record
-[ ! -e "$pre/egg_dense_paper/rescue" ] || fail "record wrote a rescue point of a finished run"
+[ ! -e "$pre/egg_dense_paper_stack/rescue" ] || fail "record wrote a rescue point of a finished run"
 [ ! -e "$records/egg_dense/lost.env" ] || fail "record marked a finished run lost"
 cp "$records/egg_dense/final/finished.env" "$scratch/finished.env"
 "$keeper" finish
@@ -235,23 +255,23 @@ assert (e['set'], e['engine'], e['trained_on']) == want, (n, e['set'], e['engine
   python3 -c "import json,sys; e=json.load(open(sys.argv[1])); assert e['episodes'] == 20, e['episodes']" \
     "$FMSR_LONG_RUNS_RECORDS/$run/final/trials-rapier.json" || fail "$run: the trials are not 20 episodes"
   for f in policy.fmsr best_on_validation.fmsr README.md render/episode-0-mujoco.gif; do
-    [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/$f" ] || fail "$run: no pretrained/${run}_paper/$f"
+    [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/$f" ] || fail "$run: no pretrained/${run}_paper_stack/$f"
   done
   # An ended run needs no rescue point; the tree would not hold it beside the final policies.
   for f in rescue best_so_far.fmsr best_so_far.env; do
-    [ ! -e "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/$f" ] || fail "$run: finish left pretrained/${run}_paper/$f"
+    [ ! -e "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/$f" ] || fail "$run: finish left pretrained/${run}_paper_stack/$f"
   done
-  grep -q "| fixed test set, MuJoCo (trained on) |" "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/README.md" || fail "$run: the README does not lead with MuJoCo"
+  grep -q "| fixed test set, MuJoCo (trained on) |" "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/README.md" || fail "$run: the README does not lead with MuJoCo"
   # The exported policy carries its evaluations: eval repeats the test one.
-  "$repo/target/release/fmsr" eval "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper" > "$scratch/eval"
+  "$repo/target/release/fmsr" eval "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack" > "$scratch/eval"
   grep -q "the same results as the evaluation the file carries" "$scratch/eval" || fail "$run: the policy does not carry its test evaluation"
 done
 # Twice at epoch 2: the restore above, then the one after the cut-off finish.
-grep -q "Restarted from its rescue point at epochs 2, 2 " "$FMSR_LONG_RUNS_PRETRAINED/egg_dense_fmsr_is_paper/README.md" || fail "the README does not say where the run was restored"
+grep -q "Restarted from its rescue point at epochs 2, 2 " "$FMSR_LONG_RUNS_PRETRAINED/egg_dense_fmsr_is_paper_stack/README.md" || fail "the README does not say where the run was restored"
 grep -q "seed 0, trained on MuJoCo;" "$scratch/results.md" || fail "the section does not say the runs trained on MuJoCo"
 # A restored run's README names the restore's build (until 2026-12-02 it said "the run's own binary").
 grep -q "exported by the binary the run ended with (\`fmsr-.*\`: restored .* from the rescue point of epoch 2 with the build of" \
-  "$FMSR_LONG_RUNS_PRETRAINED/egg_dense_fmsr_is_paper/README.md" || fail "the README does not name the restore's binary"
+  "$FMSR_LONG_RUNS_PRETRAINED/egg_dense_fmsr_is_paper_stack/README.md" || fail "the README does not name the restore's binary"
 # An ended pair's section is no longer progress (until 2026-12-02 it still said so after finish).
 grep -Eq "this section is progress, not a result|In progress and one seed each|best on validation so far" "$scratch/results.md" \
   && fail "the section of runs that have ended still calls itself in progress"
@@ -264,7 +284,7 @@ grep -q "^2 run(s) over 1 task(s)" "$FMSR_LONG_RUNS_RECORDS/report/summary.md" |
 "$keeper" record
 for run in egg_dense_fmsr_is egg_dense; do
   for f in rescue best_so_far.fmsr; do
-    [ ! -e "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper/$f" ] || fail "$run: record after finish wrote pretrained/${run}_paper/$f again"
+    [ ! -e "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/$f" ] || fail "$run: record after finish wrote pretrained/${run}_paper_stack/$f again"
   done
 done
 for engine in MuJoCo rapier; do
@@ -273,6 +293,11 @@ for engine in MuJoCo rapier; do
 done
 grep -q "| Snapshot | Dense+FMSR+IS median angle |" "$scratch/results.md" || fail "no precision of the snapshots"
 grep -q "on the fixed test set on MuJoCo (the engine they trained on)" "$scratch/results.md" || fail "the summary line is not on the trained-on engine"
-grep -q "At the paper's budget (2 epochs), egg, seed 0, ended" "$scratch/results.md" || fail "no summary line"
-grep -q "| \[\`egg_dense_paper\`\](egg_dense_paper/README.md) | Dense, 6 agents | [0-9]* | MuJoCo |" "$scratch/pretrained/README.md" || fail "no row in pretrained/README.md"
+grep -q "With the paper's stack at the paper's budget (3 epochs), egg, seed 0, ended" "$scratch/results.md" || fail "no summary line"
+grep -q "| \[\`egg_dense_paper_stack\`\](egg_dense_paper_stack/README.md) | Dense, 6 agents | [0-9]* | MuJoCo |" "$scratch/pretrained/README.md" || fail "no row in pretrained/README.md"
+# Without FMSR_LONG_RUNS_RESULTS the section goes into the records' README.md, created with a line above it.
+FMSR_LONG_RUNS_RESULTS='' "$keeper" record > /dev/null
+head -n 1 "$FMSR_LONG_RUNS_RECORDS/README.md" | grep -q "^The long runs of \`scripts/long_runs.sh\`" || fail "no line above the section in the records' README.md"
+grep -q "^## The paper's stack at the paper's budget: the egg, Dense+FMSR+IS against Dense, 400 epochs$" "$FMSR_LONG_RUNS_RECORDS/README.md" \
+  || fail "the records' README.md has no section under the campaign's heading"
 echo "test_long_runs: passed"
