@@ -193,7 +193,7 @@ fn renderings_section(runs: &[RunRecord], out: &Path, links: &RunLinks) -> Resul
 /// Each evaluated run's test success beside the chance level of its test set.
 fn chance_section(runs: &[RunRecord], links: &RunLinks) -> String {
     let mut md = String::from(
-        "\n## Against chance\n\nThe same test episodes played by a hand that holds still (zero action, simulated on the evaluation's engine; in evaluations written before 2026-11-27, estimated as the episodes that start within the threshold): a result near that level has not learned to rotate. The goal distance is the one the success was counted by: `full` (the full angle between the orientations, gym's) or `yaw` (rotation about Z alone, the records before 2026-11-27).\n\n| Run | Configuration | Goal distance | Test success | Holding still |\n|---|---|---|---|---|\n",
+        "\n## Against chance\n\nThe same test episodes played by a hand that holds still (zero action, simulated on the evaluation's engine; in evaluations written before 2026-11-27, estimated as the episodes that start within the threshold): a result near that level has not learned to rotate. The goal distance is the one the success was counted by: `full` (the full angle between the orientations, `q` and `-q` one orientation), `gym` (gymnasium-robotics' `2 arccos(w)` over [0, 2 pi], the engine's quaternion sign kept) or `yaw` (rotation about Z alone, the oldest records).\n\n| Run | Configuration | Goal distance | Test success | Holding still |\n|---|---|---|---|---|\n",
     );
     for r in runs {
         let Some(e) = &r.eval else { continue };
@@ -213,12 +213,13 @@ pub struct ReportFiles {
     pub figures: Vec<PathBuf>,
 }
 
+/// The method's colour: Okabe and Ito's colour-blind-safe palette.
 fn method_color(m: Method) -> RGBColor {
     match m {
-        Method::DenseFmsrIs => RGBColor(31, 119, 180),
-        Method::DenseFmsr => RGBColor(214, 39, 40),
-        Method::Dense => RGBColor(230, 171, 2),
-        Method::Sparse => RGBColor(44, 160, 44),
+        Method::DenseFmsrIs => RGBColor(0, 114, 178),
+        Method::DenseFmsr => RGBColor(213, 94, 0),
+        Method::Dense => RGBColor(230, 159, 0),
+        Method::Sparse => RGBColor(0, 158, 115),
     }
 }
 
@@ -234,9 +235,15 @@ fn configurations(runs: &[&RunRecord]) -> Vec<(Method, String)> {
     out
 }
 
-/// The colour of a configuration: the method's, or grey for another split of the hand.
-fn configuration_color(method: Method, label: &str) -> RGBColor {
-    if label == method.label() { method_color(method) } else { RGBColor(90, 90, 90) }
+/// The colour of a configuration among `all`: its method's, darker for each
+/// further configuration of the same method (an ablation, another engine),
+/// so that every method keeps its hue and no two configurations share a colour.
+fn configuration_color(method: Method, label: &str, all: &[(Method, String)]) -> RGBColor {
+    let variant = all.iter().filter(|(m, _)| *m == method).position(|(_, l)| l == label).unwrap_or(0);
+    let RGBColor(r, g, b) = method_color(method);
+    let scale = 0.6f64.powi(i32::try_from(variant.min(4)).unwrap_or(4));
+    let dim = |c: u8| (f64::from(c) * scale).round() as u8;
+    RGBColor(dim(r), dim(g), dim(b))
 }
 
 /// Learning curves of one task: success rate per epoch per method, mean over
@@ -253,8 +260,14 @@ fn plot_learning_curves(task: &str, runs: &[&RunRecord], path: &Path) -> Result<
         .y_label_area_size(55)
         .build_cartesian_2d(0f64..(epochs - 1) as f64, 0f64..1.0)
         .map_err(&err)?;
-    chart.configure_mesh().x_desc("epoch").y_desc("success rate").draw().map_err(&err)?;
-    for (method, label) in configurations(runs) {
+    chart
+        .configure_mesh()
+        .x_desc("epoch")
+        .y_desc("success rate (per-epoch evaluation episodes, training threshold)")
+        .draw()
+        .map_err(&err)?;
+    let all = configurations(runs);
+    for (method, label) in all.clone() {
         let seeds: Vec<&&RunRecord> = runs.iter().filter(|r| r.configuration() == (method, label.clone())).collect();
         // Mean and spread over the runs that reached each epoch.
         let n = seeds.iter().map(|r| r.metrics.len()).max().unwrap_or(0);
@@ -265,7 +278,7 @@ fn plot_learning_curves(task: &str, runs: &[&RunRecord], path: &Path) -> Result<
                 (e as f64, v.iter().sum::<f64>() / v.len() as f64)
             })
             .collect();
-        let color = configuration_color(method, &label);
+        let color = configuration_color(method, &label, &all);
         if seeds.len() > 1 {
             let upper = (0..n).map(|e| (e as f64, at(e).into_iter().fold(f64::MIN, f64::max)));
             let lower = (0..n).rev().map(|e| (e as f64, at(e).into_iter().fold(f64::MAX, f64::min)));
@@ -303,6 +316,9 @@ fn plot_time_domain(task: &str, best: &[(&RunRecord, &EvalReport)], path: &Path)
         ("active touch sensors", |e| e.trace.contacts.iter().map(|&c| c as f64).collect()),
         ("Q_DCC (mm)", |e| e.trace.q_dcc.iter().map(|d| d.map_or(f64::NAN, |d| d * 1e3)).collect()),
     ];
+    let mut all: Vec<(Method, String)> = best.iter().map(|(r, _)| r.configuration()).collect();
+    all.sort_by_key(|(m, label)| (Method::ALL.iter().position(|x| x == m), label.clone()));
+    all.dedup();
     for (area, (name, series)) in body.split_evenly((3, 2)).iter().zip(panels) {
         let data: Vec<((Method, String), Vec<f64>)> =
             best.iter().map(|(r, e)| (r.configuration(), series(e))).collect();
@@ -316,9 +332,9 @@ fn plot_time_domain(task: &str, best: &[(&RunRecord, &EvalReport)], path: &Path)
             .y_label_area_size(60)
             .build_cartesian_2d(0f64..(steps - 1) as f64, 0f64..ymax)
             .map_err(&err)?;
-        chart.configure_mesh().x_desc("step").draw().map_err(&err)?;
+        chart.configure_mesh().x_desc("env step").draw().map_err(&err)?;
         for ((method, label), values) in data {
-            let color = configuration_color(method, &label);
+            let color = configuration_color(method, &label, &all);
             let points = values.iter().enumerate().filter(|(_, v)| v.is_finite()).map(|(i, &v)| (i as f64, v));
             chart
                 .draw_series(LineSeries::new(points, color.stroke_width(2)))
@@ -450,7 +466,7 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
     if !distances.is_empty() {
         let _ = writeln!(
             summary,
-            "\nSuccess counted by the goal distance: {} (`full`: the full angle between the orientations, gym's; `yaw`: rotation about Z alone, the records before 2026-11-27).",
+            "\nSuccess counted by the goal distance: {} (`full`: the full angle between the orientations, `q` and `-q` one orientation; `gym`: gymnasium-robotics' `2 arccos(w)` over [0, 2 pi]; `yaw`: rotation about Z alone, the oldest records).",
             distances.into_iter().collect::<Vec<_>>().join(", ")
         );
     }
@@ -490,6 +506,28 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    // Guards the figures' legibility: the paper-budget report drew both arms
+    // in one grey, every configuration whose label was more than its
+    // method's name (", trained on MuJoCo") getting the same colour. Each
+    // configuration now has a colour of its own in its method's hue.
+    #[test]
+    fn every_configuration_has_a_colour_of_its_own() {
+        let all: Vec<(Method, String)> = vec![
+            (Method::DenseFmsrIs, "Dense+FMSR+IS, trained on MuJoCo".into()),
+            (Method::DenseFmsrIs, "Dense+FMSR+IS, trained on MuJoCo, paper stack".into()),
+            (Method::Dense, "Dense, trained on MuJoCo".into()),
+            (Method::Sparse, "Sparse".into()),
+        ];
+        let colours: Vec<RGBColor> = all.iter().map(|(m, l)| configuration_color(*m, l, &all)).collect();
+        for (i, a) in colours.iter().enumerate() {
+            for b in &colours[i + 1..] {
+                assert_ne!(a, b);
+            }
+        }
+        assert_eq!(colours[0], method_color(Method::DenseFmsrIs));
+        assert_eq!(colours[2], method_color(Method::Dense));
+    }
 
     // Guards the report's directory (regression): a report written over an
     // earlier one used to leave that report's figures and renderings behind
