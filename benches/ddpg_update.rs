@@ -1,12 +1,22 @@
-//! One joint DDPG update of the 6 Shadow Hand agents at the paper's sizes
-//! (action dims [2, 3, 3, 3, 4, 5] = 20, global observation 153, goal 7,
-//! actor inputs 65..179, batch 256 and the paper's 1024, 3 x 256 hidden
-//! layers, Adam), on one and on two threads, and action selection for one
-//! observation.
+//! One joint DDPG update of the 6 Shadow Hand agents at the paper's sizes,
+//! with the real shapes of the egg task (the actors' inputs and actions, the
+//! critics' input, read from the environment and the paper config's graph;
+//! 3 x 256 hidden layers, Adam), at batch 1024 (the paper's 4 x 256) and 256,
+//! on one and on two threads, and action selection for one observation.
+//!
+//! Before criterion's timings it prints how far the update is from the
+//! machine's limit, measured in the same run: the update's GEMM work in
+//! GFLOP (counted from the shapes, [`update_flops`]), its time and achieved
+//! GFLOP/s, and the GEMM ceiling, burn's matmul alone on the same layer
+//! shapes (forward, input-gradient and weight-gradient products of every
+//! layer), on one thread and on all cores; then the ratio.
 //!
 //! The networks live on `FMSR_DEVICE` (default `cpu`; `wgpu:0`, `wgpu:cpu`
 //! or `vulkan:0` with the matching cargo feature, see `fmsr_nn::device`),
 //! stacked as `FMSR_STACKING` says (`auto`, default; `per_agent`; `all`).
+//! `FMSR_BENCH_CONFIG` names the experiment whose task and graph give the
+//! shapes (default `configs/egg_dense_fmsr_is.toml`); the Shadow Hand model
+//! must be fetched (`cargo run --release -- assets fetch`).
 //!
 //! On a device other than the CPU it first checks that three joint updates
 //! there equal those on the CPU within float tolerance, and prints the outcome.
@@ -18,13 +28,16 @@
 
 use std::hint::black_box;
 use std::process::Command;
+use std::sync::OnceLock;
 use std::time::Instant;
 
+use burn::tensor::{Tensor, TensorData};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use fmsr::experiment::ExperimentConfig;
+use fmsr_core::Env;
 use fmsr_core::agent::{Batch, ObservationLayout};
 use fmsr_core::policy::{ActMode, Policy};
 use fmsr_core::replay::ReplayConfig;
-use fmsr_core::spec::{AgentSpec, EnvSpec};
 use fmsr_nn::{LearnerParts, Maddpg, MaddpgConfig, NetworkConfig, Stacking};
 
 /// The paper's batch first: its target (issue 40) is at 1024, and a GPU
@@ -32,38 +45,181 @@ use fmsr_nn::{LearnerParts, Maddpg, MaddpgConfig, NetworkConfig, Stacking};
 /// loses 256, measured in every lease so far (2026-11-27: 1024 came second
 /// and was not timed).
 const BATCHES: [usize; 2] = [1024, 256];
-const ACTION_DIMS: [usize; 6] = [2, 3, 3, 3, 4, 5];
-/// Local observation dims: wrist, index, middle, ring, little, thumb.
-const LOCAL_DIMS: [usize; 6] = [60, 52, 52, 52, 58, 165];
-const OBS_DIM: usize = 153;
-const GOAL_DIM: usize = 7;
+const HIDDEN: usize = 256;
+const LAYERS: usize = 3;
 
-/// The Shadow Hand partition; actors observe their finger-ring neighbours'
-/// previous actions (the wrist observes none), as docs/design.md 3.7.
+/// The egg task's observation layout: the agents, their local views and
+/// their graph neighbours, as a run of the paper's config builds it.
 fn layout() -> ObservationLayout {
-    let names = ["wrist", "index", "middle", "ring", "little", "thumb"];
-    let mut slot = 0;
-    let agents = names
-        .iter()
-        .zip(ACTION_DIMS.iter().zip(LOCAL_DIMS))
-        .map(|(name, (&dim, local))| {
-            let slots = (slot..slot + dim).collect();
-            slot += dim;
-            AgentSpec { name: (*name).into(), action_slots: slots, local_obs_dim: local }
+    static LAYOUT: OnceLock<ObservationLayout> = OnceLock::new();
+    LAYOUT
+        .get_or_init(|| {
+            let path = std::env::var_os("FMSR_BENCH_CONFIG").map_or_else(
+                || std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/egg_dense_fmsr_is.toml"),
+                std::path::PathBuf::from,
+            );
+            let config = ExperimentConfig::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            let env = config
+                .env_config()
+                .init()
+                .unwrap_or_else(|e| panic!("the Shadow Hand (`cargo run --release -- assets fetch`): {e}"));
+            let spec = env.spec().clone();
+            let graph = config.graph.build(&spec).expect("the config's graph");
+            ObservationLayout::from_graph(spec, &graph).expect("a valid layout")
+        })
+        .clone()
+}
+
+/// Multiply-adds per row of one linear stack `inputs -> hidden^layers -> outputs`.
+fn mlp_macs(inputs: usize, outputs: usize) -> usize {
+    inputs * HIDDEN + (LAYERS - 1) * HIDDEN * HIDDEN + HIDDEN * outputs
+}
+
+/// The GEMM floating-point operations of one joint MADDPG update at batch
+/// `n`: with `A` the actors' and `C` the critics' multiply-adds per row,
+/// the critic step runs the target actors and target critics forward (`A +
+/// C`), the online critics forward and backward (weights `C`, inputs `C`
+/// less their first layer's), the actor step the actors forward, the critics
+/// forward at the actors' actions and back to those actions (inputs `C`; the
+/// critics' weights take no gradient there) and the actors backward (weights
+/// `A`, inputs `A` less their first layer's): `4A + 6C` less the two first
+/// layers' input products, two FLOPs a multiply-add.
+fn update_flops(layout: &ObservationLayout, n: usize) -> f64 {
+    let spec = layout.spec();
+    let critic_in = spec.obs_dim + spec.goal_dim + spec.action_dim;
+    let (mut actors, mut actor_first) = (0, 0);
+    for (i, agent) in spec.agents.iter().enumerate() {
+        actors += mlp_macs(layout.actor_input_dim(i), agent.action_slots.len());
+        actor_first += layout.actor_input_dim(i) * HIDDEN;
+    }
+    let na = spec.agents.len();
+    let critics = na * mlp_macs(critic_in, 1);
+    let macs = 4 * actors - actor_first + 6 * critics - na * critic_in * HIDDEN;
+    2.0 * macs as f64 * n as f64
+}
+
+/// Every `(m, k, n)` product of one forward and backward pass of the
+/// networks at batch `rows`: per layer `in -> out`, the forward `[rows, in] x
+/// [in, out]`, the input gradient `[rows, out] x [out, in]` and the weight
+/// gradient `[in, rows] x [rows, out]`.
+fn gemm_shapes(layout: &ObservationLayout, rows: usize) -> Vec<(usize, usize, usize)> {
+    let spec = layout.spec();
+    let critic_in = spec.obs_dim + spec.goal_dim + spec.action_dim;
+    let mut stacks: Vec<(usize, usize)> =
+        (0..spec.agents.len()).map(|i| (layout.actor_input_dim(i), spec.agents[i].action_slots.len())).collect();
+    stacks.extend(std::iter::repeat_n((critic_in, 1), spec.agents.len()));
+    let mut shapes = Vec::new();
+    for (inputs, outputs) in stacks {
+        let widths: Vec<usize> =
+            std::iter::once(inputs).chain(std::iter::repeat_n(HIDDEN, LAYERS)).chain([outputs]).collect();
+        for w in widths.windows(2) {
+            let (i, o) = (w[0], w[1]);
+            shapes.extend([(rows, i, o), (rows, o, i), (i, rows, o)]);
+        }
+    }
+    shapes
+}
+
+/// GFLOP/s of burn's matmul alone over `shapes` on the flex CPU backend, on
+/// `threads` OS threads at once, each running every product in a one-thread
+/// rayon pool (as the agents' groups run on `networks.threads`): the best of
+/// five passes, each product's inputs made beforehand.
+fn gemm_ceiling(shapes: &[(usize, usize, usize)], threads: usize) -> f64 {
+    let flops: f64 = shapes.iter().map(|&(m, k, n)| 2.0 * (m * k * n) as f64).sum();
+    let barrier = std::sync::Barrier::new(threads);
+    let best = std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..threads)
+            .map(|t| {
+                let barrier = &barrier;
+                scope.spawn(move || {
+                    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a one-thread pool");
+                    pool.install(|| {
+                        let device = fmsr_nn::Device::flex();
+                        let pairs: Vec<(Tensor<2>, Tensor<2>)> = shapes
+                            .iter()
+                            .enumerate()
+                            .map(|(s, &(m, k, n))| {
+                                let salt = 1000 * t + s;
+                                let a = Tensor::<2>::from_data(TensorData::new(values(m * k, salt), [m, k]), &device);
+                                let b =
+                                    Tensor::<2>::from_data(TensorData::new(values(k * n, salt + 500), [k, n]), &device);
+                                (a, b)
+                            })
+                            .collect();
+                        (0..5)
+                            .map(|_| {
+                                barrier.wait();
+                                let start = Instant::now();
+                                for (a, b) in &pairs {
+                                    black_box(a.clone().matmul(b.clone()).into_data());
+                                }
+                                start.elapsed().as_secs_f64()
+                            })
+                            .collect::<Vec<f64>>()
+                    })
+                })
+            })
+            .collect();
+        let times: Vec<Vec<f64>> = workers.into_iter().map(|w| w.join().expect("a GEMM thread")).collect();
+        // A pass ends when its slowest thread does.
+        (0..5).map(|p| times.iter().map(|t| t[p]).fold(0.0, f64::max)).fold(f64::INFINITY, f64::min)
+    });
+    threads as f64 * flops / best / 1e9
+}
+
+/// The update's time and GFLOP/s at batch `n` with `threads` agent threads,
+/// the median of `iters` updates after a warm-up.
+fn update_rate(n: usize, threads: usize, iters: usize) -> (f64, f64) {
+    let layout = layout();
+    let b = batch(&layout, n);
+    let mut l = learner(threads);
+    for _ in 0..3 {
+        l.learn_batch(&b, &BOUNDS).expect("learn");
+    }
+    let mut times: Vec<f64> = (0..iters)
+        .map(|_| {
+            let start = Instant::now();
+            black_box(l.learn_batch(&b, &BOUNDS).expect("learn"));
+            start.elapsed().as_secs_f64()
         })
         .collect();
-    let spec = EnvSpec {
-        agents,
-        action_dim: 20,
-        obs_dim: OBS_DIM,
-        goal_dim: GOAL_DIM,
-        episode_len: 100,
-        features: vec!["safe_region".into(), "contacts".into()],
-        reward_range: (-std::f32::consts::PI, 0.0),
-    };
-    // Finger ring thumb-index-middle-ring-little-thumb; the wrist alone.
-    let neighbours = vec![vec![], vec![5, 2], vec![1, 3], vec![2, 4], vec![3, 5], vec![4, 1]];
-    ObservationLayout::new(spec, neighbours).expect("a valid layout")
+    times.sort_by(f64::total_cmp);
+    let median = times[iters / 2];
+    (median, update_flops(&layout, n) / median / 1e9)
+}
+
+/// How far the update is from the limit: its GFLOP/s against the GEMM
+/// ceiling on the same shapes, on one thread (one rayon thread for the
+/// kernels, one agent thread) and on two (two agent threads; the ceiling
+/// two threads of GEMM at once), measured here.
+fn limits(_c: &mut Criterion) {
+    if std::env::var("FMSR_DEVICE").is_ok_and(|d| d != "cpu") {
+        return; // the ceiling is the CPU's
+    }
+    let layout = layout();
+    let spec = layout.spec();
+    let inputs: Vec<usize> = (0..spec.agents.len()).map(|i| layout.actor_input_dim(i)).collect();
+    println!(
+        "shapes: actor inputs {inputs:?}, critic input {}, {LAYERS} x {HIDDEN} hidden; one update at batch 1024 is {:.2} GFLOP of GEMM",
+        spec.obs_dim + spec.goal_dim + spec.action_dim,
+        update_flops(&layout, 1024) / 1e9
+    );
+    let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a one-thread pool");
+    for n in BATCHES {
+        let shapes = gemm_shapes(&layout, n);
+        for threads in [1, 2] {
+            let (secs, rate) =
+                if threads == 1 { one.install(|| update_rate(n, 1, 15)) } else { update_rate(n, threads, 15) };
+            let ceiling = gemm_ceiling(&shapes, threads);
+            println!(
+                "joint update, batch {n}, {threads} thread(s) ({cores} cores): {:.1} ms, {rate:.1} GFLOP/s; GEMM ceiling \
+                 on the same shapes {ceiling:.1} GFLOP/s; update / ceiling = {:.2}",
+                secs * 1e3,
+                rate / ceiling
+            );
+        }
+    }
 }
 
 /// Deterministic pseudo-random values in [-1, 1).
@@ -84,9 +240,9 @@ fn batch(layout: &ObservationLayout, n: usize) -> Batch {
     let na = spec.num_agents();
     Batch {
         size: n,
-        obs: values(n * OBS_DIM, 1),
-        next_obs: values(n * OBS_DIM, 2),
-        goals: values(n * GOAL_DIM, 3),
+        obs: values(n * spec.obs_dim, 1),
+        next_obs: values(n * spec.obs_dim, 2),
+        goals: values(n * spec.goal_dim, 3),
         actions: values(n * spec.action_dim, 4),
         actor_inputs: (0..na).map(|i| values(n * layout.actor_input_dim(i), 10 + i)).collect(),
         next_actor_inputs: (0..na).map(|i| values(n * layout.actor_input_dim(i), 20 + i)).collect(),
@@ -129,7 +285,7 @@ fn three_updates(device: fmsr_nn::Device, stacking: Stacking) -> (Vec<f32>, Vec<
         let (c, a) = l.learn_batch(&b, &BOUNDS).expect("learn");
         losses.extend(c.into_iter().chain(a));
     }
-    let params = (0..ACTION_DIMS.len()).flat_map(|i| {
+    let params = (0..layout.spec().num_agents()).flat_map(|i| {
         let (a, c) = l.params(i).expect("params");
         a.into_iter().chain(c)
     });
@@ -241,7 +397,9 @@ fn pytorch_reference(_c: &mut Criterion) {
         return;
     }
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/scripts/pytorch_reference/run.sh");
-    let out = match Command::new("bash").arg(script).output() {
+    let layout = layout();
+    let inputs: Vec<String> = (0..layout.spec().num_agents()).map(|i| layout.actor_input_dim(i).to_string()).collect();
+    let out = match Command::new("bash").arg(script).env("FMSR_ACTOR_INPUTS", inputs.join(",")).output() {
         Ok(out) if out.status.success() => out,
         Ok(out) => {
             eprintln!("pytorch reference failed ({}):\n{}", out.status, String::from_utf8_lossy(&out.stderr));
@@ -277,6 +435,6 @@ criterion_group! {
     name = benches;
     // No plots: criterion's plotters backend needs system fonts that CI images may lack.
     config = Criterion::default().without_plots();
-    targets = parity, joint_update, pytorch_reference
+    targets = parity, limits, joint_update, pytorch_reference
 }
 criterion_main!(benches);

@@ -3,13 +3,16 @@ fmsr-nn's DdpgLearner::learn (benches/ddpg_update.rs): per agent a critic
 update (target actors of all agents, target critic, clipped target, MSE,
 Adam) then an actor update (-Q + action_l2 * mean(mu^2), Adam), batch 256,
 3 x 256 hidden layers, action dims [2, 3, 3, 3, 4, 5], global obs 153, goal 7,
-actor inputs as in the bench. Prints `updates/s threads=T: X` on the CPU.
+actor inputs as in the bench: `FMSR_ACTOR_INPUTS` (comma-separated, set by
+benches/ddpg_update.rs from the egg task's layout), else the dims below.
+Prints `updates/s threads=T: X` on the CPU.
 
 `update.py [iters] [--device cuda] [--batch 256,1024]`: on CUDA it times each
 batch size (device work synchronised before the clock is read) and prints
 `updates/s device=cuda batch=N: X`.
 """
 import argparse
+import os
 import time
 
 import torch
@@ -40,6 +43,9 @@ def mlp(i, o, out_act=None):
 def build(device, B):
     torch.manual_seed(0)
     in_dims = [LOCAL_DIMS[i] + GOAL + sum(ACTION_DIMS[j] for j in NEIGHBOURS[i]) for i in range(6)]
+    if os.environ.get("FMSR_ACTOR_INPUTS"):
+        in_dims = [int(d) for d in os.environ["FMSR_ACTOR_INPUTS"].split(",")]
+        assert len(in_dims) == 6, "FMSR_ACTOR_INPUTS: six actor input sizes"
     cin = OBS + GOAL + A
     actors = [mlp(d, a, nn.Tanh()) for d, a in zip(in_dims, ACTION_DIMS)]
     critics = [mlp(cin, 1) for _ in range(6)]
