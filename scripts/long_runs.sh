@@ -63,13 +63,13 @@
 # and egg_dense_fmsr_is.toml under `stack = "paper"`, 400 epochs. The first
 # campaign, the same pair at the paper's budget before that preset, has ended;
 # its records are docs/results/paper_budget/, its policies pretrained/<run>_paper/,
-# its section "The paper's budget" in docs/results.md (where its summary line,
+# its section "The paper's budget" in docs/notebook/results.md (where its summary line,
 # between M-summary markers, and pretrained/README.md's index of its policies,
 # between M-policies markers, are written too). It is addressed, to rewrite its
 # section for instance, as
 #
 #   FMSR_LONG_RUNS_SUFFIX=_paper FMSR_LONG_RUNS_RECORDS=docs/results/paper_budget \
-#     FMSR_LONG_RUNS_RESULTS=docs/results.md \
+#     FMSR_LONG_RUNS_RESULTS=docs/notebook/results.md \
 #     FMSR_LONG_RUNS_HEADING="The paper's budget: the egg, Dense+FMSR+IS against Dense, 400 epochs" \
 #     scripts/long_runs.sh ...
 #

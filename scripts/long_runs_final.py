@@ -17,7 +17,7 @@ and II, row by row, on each engine.
 A campaign of the keeper is one pair of runs with its records, its policies in
 pretrained/<run><suffix>/ and its section under its own heading. The first,
 the paper's budget, is addressed with PAPER_BUDGET_HEADING and the suffix
-`_paper` (its section is in docs/results.md); the defaults, HEADING and
+`_paper` (its section is in docs/notebook/results.md); the defaults, HEADING and
 SUFFIX, are the second's, the paper's stack at the paper's budget.
 
 The paper's numbers (egg and block rows of Tables I and II) are written out
@@ -429,7 +429,7 @@ def trained_on(finals):
 
 
 def section_lines(finals, records_rel, pretrained_rel):
-    """The comparison with the paper of the runs' final evaluations (`load_final`), for the section of docs/results.md."""
+    """The comparison with the paper of the runs' final evaluations (`load_final`), for the section of docs/notebook/results.md."""
     by_label = {f["label"]: f for f in finals}
     lines = ["", "### At the end: against the paper (issue 37, item 4)", "",
              "Written by `scripts/long_runs.sh finish`: the policy after the last epoch of each run (no selection), "

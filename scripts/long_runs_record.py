@@ -20,7 +20,7 @@ first campaign, docs/results/paper_budget, `paper-budget`): the section's
 `M-policies`, each written only where its markers are. The first campaign,
 as it was written:
 
-    long_runs_record.py --records docs/results/paper_budget --results docs/results.md --suffix _paper \
+    long_runs_record.py --records docs/results/paper_budget --results docs/notebook/results.md --suffix _paper \
         --heading "The paper's budget: the egg, Dense+FMSR+IS against Dense, 400 epochs" ...
 
 Success intervals are 95 % Wilson intervals, and differences Newcombe's hybrid
@@ -492,7 +492,7 @@ PRETRAINED_END = "<!-- {}-policies:end -->"
 
 
 def summary_bullet(runs, finals, link, heading=HEADING):
-    """The line of docs/results.md's summary on the long runs: how far, and the latest snapshot's test success."""
+    """The line of docs/notebook/results.md's summary on the long runs: how far, and the latest snapshot's test success."""
     if not runs:
         return ""
     if finals:

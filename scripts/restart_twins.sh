@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # What a late restart from a rescue point costs, against the same run
-# uninterrupted (docs/results.md, "Not run"; issue 53): twins from one
+# uninterrupted (docs/notebook/results.md, "Not run"; issue 53): twins from one
 # checkpoint, trained to the same epoch, compared by scripts/restart_twins.py.
 #
 #   scripts/restart_twins.sh RUN OUT EPOCHS ARM...

@@ -2,7 +2,7 @@
 """Regression test: the restart twins' table compares what it says.
 
 Guards scripts/restart_twins.py, which sets each arm restarted from a rescue
-point against the `uninterrupted` twin of the same checkpoint (docs/results.md
+point against the `uninterrupted` twin of the same checkpoint (docs/notebook/results.md
 "Not run": a late restart against the same run uninterrupted). On made-up run
 directories whose answer is known: only the epochs from the split count (the
 history before it, which every twin shares, does not); rates are read as counts

@@ -929,7 +929,7 @@ mod label_tests {
         assert_eq!(free.label(), "Dense, HER target clip");
     }
 
-    // Guards what the ablations of docs/results.md claim: each config in
+    // Guards what the ablations of docs/notebook/results.md claim: each config in
     // configs/lite/ablation/ is its method's lite config with one setting
     // changed, each in ablation/combined/ changes two or more of those
     // settings at once, and their runs are labelled apart from the method's.

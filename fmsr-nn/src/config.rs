@@ -300,7 +300,7 @@ pub enum Teammates {
     ///
     /// Kept as the default by measurement: on the block task (Dense+FMSR+IS,
     /// 220k env steps, one seed) [`Teammates::Current`] learned no faster and
-    /// cost more per update (the project's `docs/results.md`).
+    /// cost more per update (the project's `docs/notebook/results.md`).
     #[default]
     Replay,
     /// The teammates' current deterministic policies at the sampled

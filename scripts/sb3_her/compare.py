@@ -1,5 +1,5 @@
 """Sets the stable-baselines3 peer beside fmsr's single-agent reference, epoch
-by epoch, as the markdown tables of docs/results.md (issue 11, item 6).
+by epoch, as the markdown tables of docs/notebook/results.md (issue 11, item 6).
 
     python3 scripts/sb3_her/compare.py runs/peer/sb3_her_s0 runs/peer/fmsr_single_mujoco_s0
 

@@ -35,7 +35,7 @@ use serde::{Deserialize, Serialize};
 /// the sensors then read only the object's contacts. With every contact, as
 /// MuJoCo counts them, random actions give 5.20 active sensors a step against
 /// MuJoCo's 4.86; `examples/engine_parity.rs` measures both fidelity settings
-/// against MuJoCo, and `docs/results.md` holds its table.)
+/// against MuJoCo, and `docs/notebook/results.md` holds its table.)
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RapierSettings {
