@@ -223,7 +223,7 @@ impl PolicyFile {
 /// The policy files in `dir` (`dir/*.fmsr` and `dir/*/policy.fmsr`, sorted)
 /// trained in the configuration of `config`: the same task, engine and
 /// configuration label (method, agents). Files that cannot be read are
-/// skipped with a warning on stderr; a missing `dir` has none.
+/// skipped with a warning (`log::warn!`); a missing `dir` has none.
 #[must_use]
 pub fn matching_policies(dir: &Path, config: &ExperimentConfig) -> Vec<PathBuf> {
     let Ok(entries) = std::fs::read_dir(dir) else { return Vec::new() };
@@ -241,7 +241,7 @@ pub fn matching_policies(dir: &Path, config: &ExperimentConfig) -> Vec<PathBuf> 
                 && f.config.label() == config.label()
         }
         Err(e) => {
-            eprintln!("warning: skipping {}: {e}", p.display());
+            log::warn!("skipping {}: {e}", p.display());
             false
         }
     });

@@ -34,18 +34,18 @@ use crate::experiment::ExperimentConfig;
 use args::{AssetsCommand, Cli, Command, EvalArgs, SetArg, TrainArgs};
 use commands::{Context, eval, export, render, report, train};
 
-/// The `fmsr` command on this process's arguments: call it first thing in
-/// `main`. Prints an error with its causes and returns failure.
+/// The `fmsr` command on this process's arguments. Prints an error with its
+/// causes and returns failure.
+///
+/// It changes no process state. In a build with a GPU backend, burn creates
+/// a loaded optimiser state on its default device (`BURN_DEVICE`, else the
+/// GPU backend's default adapter) before moving it to the networks' device,
+/// and a machine without that adapter fails there with a typed error; the
+/// `fmsr` binary (`src/main.rs`) therefore sets `BURN_DEVICE=flex`, where
+/// the state always can be made, before calling this. A binary of your own
+/// does the same if it resumes runs in a GPU build.
 #[must_use]
 pub fn main() -> ExitCode {
-    if std::env::var_os("BURN_DEVICE").is_none() {
-        // burn creates a loaded optimiser state on its default device (a GPU
-        // backend's default adapter in a GPU build) before moving it to the
-        // networks' device; on the CPU that always exists (fmsr_nn::device).
-        // SAFETY: called first in main, before any thread exists (the
-        // function's contract, in its docs).
-        unsafe { std::env::set_var("BURN_DEVICE", "flex") };
-    }
     let cli = Cli::parse();
     match execute(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
