@@ -167,6 +167,37 @@ pub fn evaluate_source_on<E: Env + ContactReadout + Send>(
     source: &Source,
     dt: f64,
 ) -> Result<EvalReport, ExperimentError> {
+    evaluate_source_with(config, env, engine, set, source, dt, &mut |_| {})
+}
+
+/// Where an evaluation stands, for a progress display ([`evaluate_source_with`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EvalProgress {
+    /// `done` of the policy's `total` episodes played.
+    Policy {
+        /// Episodes played so far.
+        done: usize,
+        /// Episodes to play.
+        total: usize,
+    },
+    /// The same episodes are being played by a hand that holds still.
+    HoldingStill,
+}
+
+/// As [`evaluate_source_on`], telling `progress` after each of the policy's
+/// episodes and before the hold-still baseline.
+///
+/// # Errors
+/// As [`evaluate_source_on`].
+pub fn evaluate_source_with<E: Env + ContactReadout + Send>(
+    config: &ExperimentConfig,
+    env: E,
+    engine: Engine,
+    set: EpisodeSet,
+    source: &Source,
+    dt: f64,
+    progress: &mut dyn FnMut(EvalProgress),
+) -> Result<EvalReport, ExperimentError> {
     let start = Instant::now();
     let mut trainer = config.build_trainer(vec![env])?;
     let epochs = source.load_into(&mut trainer)?;
@@ -175,12 +206,14 @@ pub fn evaluate_source_on<E: Env + ContactReadout + Send>(
     let mut records = Vec::with_capacity(seeds.len());
     let mut summaries = Vec::with_capacity(seeds.len());
     let mut first_trace = None;
-    for &seed in &seeds {
+    for (i, &seed) in seeds.iter().enumerate() {
         let played = play(&mut trainer, seed, threshold, dt)?;
         records.push(played.record);
         summaries.extend(played.summary);
         first_trace.get_or_insert(played.trace);
+        progress(EvalProgress::Policy { done: i + 1, total: seeds.len() });
     }
+    progress(EvalProgress::HoldingStill);
     let still = hold_still(trainer.env_mut(), &seeds, threshold)?;
     let outcomes: FailureCounts = records.iter().map(|r| r.outcome).collect();
     Ok(EvalReport {

@@ -10,6 +10,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use super::args::{EvalArgs, ExportArgs, RenderArgs, TrainArgs};
 use crate::artefacts::{POLICY_FILE_NAME, PolicyFile, RunDir, Source};
 use crate::error::ExperimentError;
+use crate::evaluate::EvalProgress;
 use crate::experiment::{Engine, EpisodeSet, ExperimentConfig};
 use crate::run;
 use fmsr_core::prelude::*;
@@ -142,6 +143,52 @@ impl Progress {
     }
 }
 
+/// How a long command other than training shows where it stands: a bar of
+/// its items on a terminal, else one line per stage on stderr (for logs).
+struct StageProgress {
+    what: String,
+    bar: Option<ProgressBar>,
+    start: Instant,
+}
+
+impl StageProgress {
+    fn new(what: &str, items: usize) -> Self {
+        let bar = std::io::stderr().is_terminal().then(|| {
+            let bar = ProgressBar::new(items as u64);
+            bar.set_style(
+                ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} ETA {eta} {msg}")
+                    .expect("a valid template")
+                    .progress_chars("=> "),
+            );
+            bar.set_prefix(what.to_owned());
+            bar
+        });
+        Self { what: what.to_owned(), bar, start: Instant::now() }
+    }
+
+    /// A new stage: the bar's message, or a line.
+    fn stage(&mut self, stage: &str) {
+        match &self.bar {
+            Some(bar) => bar.set_message(stage.to_owned()),
+            None => eprintln!("{}: {stage} ({:.0} s)", self.what, self.start.elapsed().as_secs_f64()),
+        }
+    }
+
+    /// `done` items so far (the bar only: a log gets the stages).
+    fn set(&self, done: usize) {
+        if let Some(bar) = &self.bar {
+            bar.set_position(done as u64);
+        }
+    }
+
+    fn finish(&self) {
+        match &self.bar {
+            Some(bar) => bar.finish_and_clear(),
+            None => eprintln!("{}: done in {:.0} s", self.what, self.start.elapsed().as_secs_f64()),
+        }
+    }
+}
+
 /// `fmsr train`: in this process, or as one rank of an `mpirun` job.
 pub(super) fn train(args: &TrainArgs) -> Result<RunDir> {
     if run::launched_with_several_ranks() {
@@ -233,7 +280,15 @@ pub(super) fn eval(args: &EvalArgs) -> Result<()> {
     let dt = crate::experiment::MODEL_TIMESTEP * config.env.substeps as f64;
     let env =
         config.env_config().init_engine(engine).context(|| format!("building the {} Shadow Hand", engine.key()))?;
-    let summary = crate::evaluate::evaluate_source_on(&config, env, engine, set, &source, dt)?;
+    let what = format!("{} on {} ({} episodes)", set.key(), engine.key(), config.eval.episodes);
+    let mut shown = StageProgress::new(&format!("eval {}", args.run.display()), config.eval.episodes);
+    shown.stage(&format!("playing the {what}"));
+    let mut on_progress = |p: EvalProgress| match p {
+        EvalProgress::Policy { done, .. } => shown.set(done),
+        EvalProgress::HoldingStill => shown.stage("the same episodes by a hand that holds still"),
+    };
+    let summary = crate::evaluate::evaluate_source_with(&config, env, engine, set, &source, dt, &mut on_progress)?;
+    shown.finish();
     println!("{}", summary.to_markdown());
     let out = match &source {
         Source::Run(dir) => Some(args.out.clone().unwrap_or_else(|| {
@@ -341,10 +396,19 @@ pub(super) fn render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
     };
     let env =
         config.env_config().init_engine(engine).context(|| format!("building the {} Shadow Hand", engine.key()))?;
+    let mut shown = StageProgress::new(&format!("render {}", args.run.display()), 3);
+    shown.stage(&format!("playing test episode {} on {}", args.episode, engine.key()));
     let film = record_source_episode(&config, env, engine, &source, args.episode)?;
+    shown.set(1);
+    shown.stage("loading the meshes");
     let scene = crate::render::load_scene(&config)?;
+    shown.set(2);
+    shown.stage("drawing the frames");
     let camera = fmsr_envs::shadow_hand::render::Camera::gym(args.width, args.height);
-    crate::render::write_film(&scene, &film, &camera, &target)
+    let written = crate::render::write_film(&scene, &film, &camera, &target)?;
+    shown.set(3);
+    shown.finish();
+    Ok(written)
 }
 
 /// Renders test episode 0 of each run on its own engine, unless already drawn
@@ -367,12 +431,20 @@ fn render_for_report(runs: &[PathBuf]) {
 }
 
 pub(super) fn report(runs: &[PathBuf], out: &std::path::Path) -> Result<()> {
+    let mut shown = StageProgress::new("report", 3);
+    shown.stage(&format!("rendering test episode 0 of the {} run(s) not yet drawn", runs.len()));
     render_for_report(runs);
+    shown.set(1);
+    shown.stage("reading the runs");
     let records = runs
         .iter()
         .map(|r| crate::report::RunRecord::open(r).context(|| format!("reading the run {}", r.display())))
         .collect::<Result<Vec<_>>>()?;
+    shown.set(2);
+    shown.stage("writing the tables and figures");
     let files = crate::report::write_report(&records, out)?;
+    shown.set(3);
+    shown.finish();
     println!("report written to {} ({} figures)", files.summary.display(), files.figures.len());
     Ok(())
 }
