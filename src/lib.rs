@@ -41,23 +41,38 @@
 //! does: `examples/downstream/src/sac.rs`, a crate outside this workspace,
 //! writes SAC with a fixed temperature that way, registers it and runs it
 //! through [`cli::run`].
+//!
+//! ## Features
+//!
+//! `cli` (default) brings the `fmsr` command, [`report`], [`render`] and
+//! [`tensorboard`] with their crates (clap, indicatif, plotters and a font,
+//! gif, png, prost); a library user's crate that trains, evaluates and saves
+//! runs from its own code depends on `fmsr` with `default-features = false`
+//! and builds none of them. `report`, `render` and `tensorboard` each alone;
+//! `mujoco`, the GPU backends and `mpi` as the guide says.
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![warn(missing_docs)]
 
 pub mod algorithms;
 pub mod artefacts;
+#[cfg(feature = "cli")]
 pub mod cli;
 pub mod error;
 pub mod evaluate;
 pub mod experiment;
 mod factory;
+#[cfg(any(feature = "report", feature = "render"))]
 mod font;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 pub mod provenance;
+#[cfg(feature = "render")]
 pub mod render;
+#[cfg(feature = "report")]
 pub mod report;
 pub mod run;
 pub mod stack;
+#[cfg(feature = "tensorboard")]
 pub mod tensorboard;
 
 pub use fmsr_core as core;

@@ -11,6 +11,7 @@ use fmsr_core::trainer::{RescuePoint, Restart};
 use crate::artefacts::RunDir;
 use crate::experiment::{ExperimentConfig, ExperimentError};
 use crate::provenance::Provenance;
+#[cfg(feature = "tensorboard")]
 use crate::tensorboard::EventWriter;
 
 /// Trains `config` on `envs` (`config.trainer.num_envs()` copies of the task) in `dir`: a new run (refusing to overwrite one that
@@ -101,6 +102,8 @@ pub fn train_from<E: Env + Send>(
             trainer.save_checkpoint(&dir.checkpoint())?;
         }
     }
+    // TensorBoard events beside metrics.csv, in builds with the `tensorboard` feature.
+    #[cfg(feature = "tensorboard")]
     let mut events = None;
     if writes {
         if !resume || !dir.provenance().exists() {
@@ -111,13 +114,17 @@ pub fn train_from<E: Env + Send>(
         }
         write_atomic(&dir.config(), config.to_toml()?.as_bytes())?;
         dir.write_metrics(trainer.history(), config.env.goal_distance)?;
-        events = Some(EventWriter::create(dir.root())?);
+        #[cfg(feature = "tensorboard")]
+        {
+            events = Some(EventWriter::create(dir.root())?);
+        }
     }
     trainer.train(|t, stats| {
         t.save_checkpoint(&dir.checkpoint())?;
         if writes {
             dir.write_metrics(t.history(), config.env.goal_distance)?;
         }
+        #[cfg(feature = "tensorboard")]
         if let Some(events) = &mut events {
             events.write_epoch(stats, t.env().spec())?;
         }
