@@ -93,6 +93,10 @@ pub use collector::Collector;
 pub use env::{ContactReadout, Env};
 pub use error::CoreError;
 pub use policy::{ActMode, Policy, PolicyState};
+/// The rand this crate's API takes (the replay buffer's sampling RNG, the
+/// seeded streams of [`seeding`]), so that an algorithm of one's own names
+/// it at the same version.
+pub use rand;
 pub use shadow::{OccupancyEstimator, ShadowReward};
 
 /// The items most users need.

@@ -94,6 +94,9 @@ mod state;
 mod workers;
 
 pub use any::{AnyLearner, ConfiguredRule};
+/// The burn this crate is built on, so that a rule of one's own names its
+/// tensors and modules at the same version (`fmsr_nn::burn::tensor::Tensor`).
+pub use burn;
 /// burn's device type, re-exported for [`LearnerParts::with_device`] (e.g. `Device::flex()`).
 pub use burn::tensor::Device;
 pub use config::{
