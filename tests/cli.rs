@@ -680,3 +680,21 @@ fn evaluating_on_mujoco_without_the_feature_is_a_clear_error() {
     assert!(text(&out).contains("mujoco"), "{}", text(&out));
     assert!(!run.join("eval-mujoco.json").exists());
 }
+
+// Guards an installed `fmsr` used outside a checkout: the default experiment
+// was a path relative to the working directory, so `fmsr train` (and `fmsr
+// run`) without --config failed anywhere but the repository's root. Where no
+// file is at the default path, the copy built into the binary is read.
+#[test]
+fn the_default_experiment_needs_no_checkout() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = std::process::Command::new(FMSR)
+        .current_dir(tmp.path())
+        .args(["train", "--epochs", "0", "--out", "run", "--quiet"])
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", text(&out));
+    let config = std::fs::read_to_string(tmp.path().join("run/config.toml")).unwrap();
+    assert!(config.contains("name = \"egg_dense_fmsr_is_quick\""), "{config}");
+}

@@ -55,7 +55,8 @@ pub(super) enum AssetsCommand {
 #[derive(Debug, clap::Args)]
 pub(super) struct TrainArgs {
     /// The experiment (TOML); with --resume the run's own config.toml is used.
-    #[arg(long, default_value = "configs/egg_dense_fmsr_is_quick.toml")]
+    /// The default, where no file is at its path, is the copy built into the binary.
+    #[arg(long, default_value = super::DEFAULT_CONFIG)]
     pub(super) config: PathBuf,
     /// Physics engine, overriding the config (with --resume: must be the run's).
     #[arg(long, value_enum)]
@@ -221,8 +222,9 @@ pub(super) struct RenderArgs {
 
 #[derive(Debug, clap::Args)]
 pub(super) struct RunArgs {
-    /// The experiment (TOML).
-    #[arg(long, default_value = "configs/egg_dense_fmsr_is_quick.toml")]
+    /// The experiment (TOML). The default, where no file is at its path, is
+    /// the copy built into the binary.
+    #[arg(long, default_value = super::DEFAULT_CONFIG)]
     pub(super) config: PathBuf,
     /// Run directory (default `runs/<name>`); an existing run there is resumed.
     #[arg(long)]

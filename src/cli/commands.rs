@@ -43,12 +43,12 @@ fn resolve_config(args: &TrainArgs) -> Result<(ExperimentConfig, RunDir, bool)> 
         let dir = match &args.out {
             Some(out) => RunDir::new(out),
             None => {
-                RunDir::new(default_dir(&ExperimentConfig::load(&args.config).context(|| "reading the experiment")?))
+                RunDir::new(default_dir(&super::load_experiment(&args.config).context(|| "reading the experiment")?))
             }
         };
         (dir.load_config().context(|| "reading the run's config.toml")?, dir)
     } else {
-        let config = ExperimentConfig::load(&args.config).context(|| "reading the experiment")?;
+        let config = super::load_experiment(&args.config).context(|| "reading the experiment")?;
         let dir = RunDir::new(args.out.clone().unwrap_or_else(|| default_dir(&config)));
         (config, dir)
     };

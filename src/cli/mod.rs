@@ -34,6 +34,19 @@ use crate::experiment::ExperimentConfig;
 use args::{AssetsCommand, Cli, Command, EvalArgs, SetArg, TrainArgs};
 use commands::{Context, eval, export, render, report, train};
 
+/// The default experiment of `fmsr run` and `fmsr train`.
+pub(crate) const DEFAULT_CONFIG: &str = "configs/egg_dense_fmsr_is_quick.toml";
+
+/// The experiment at `path`; the default one, where no file is at its path
+/// (an installed `fmsr` run outside a checkout), from the copy built into
+/// the binary.
+pub(crate) fn load_experiment(path: &std::path::Path) -> Result<ExperimentConfig, ExperimentError> {
+    if path == std::path::Path::new(DEFAULT_CONFIG) && !path.exists() {
+        return ExperimentConfig::from_toml(include_str!("../../configs/egg_dense_fmsr_is_quick.toml"), path);
+    }
+    ExperimentConfig::load(path)
+}
+
 /// The `fmsr` command on this process's arguments. Prints an error with its
 /// causes and returns failure.
 ///
@@ -129,7 +142,7 @@ fn execute(command: Command) -> Result<(), ExperimentError> {
             Ok(())
         }
         Command::Run(args) => {
-            let name = ExperimentConfig::load(&args.config)?.name;
+            let name = load_experiment(&args.config)?.name;
             let out = args.out.clone().unwrap_or_else(|| PathBuf::from("runs").join(name));
             let train_args = TrainArgs {
                 config: args.config.clone(),
