@@ -93,6 +93,30 @@ pub struct NetworkConfig {
     /// every sampled training batch).
     #[config(default = "NormalizerStats::SampledBatches")]
     pub normalizer_stats: NormalizerStats,
+    /// The critics' loss on their TD error (default: squared, eq. 7).
+    #[config(default = "CriticLoss::Squared")]
+    pub critic_loss: CriticLoss,
+    /// Every gradient element of the actors and critics is clipped to
+    /// `[-grad_clip_value, grad_clip_value]` before the Adam step; 0 (the
+    /// default) clips nothing. Element-wise, so stacked agents stay independent.
+    #[config(default = 0.0)]
+    pub grad_clip_value: f64,
+}
+
+/// The critics' loss on the TD error `d = Q_i(x, g, a) - y_i`, averaged over the batch.
+///
+/// ```text
+/// squared   d^2                                        (default; eq. 7, HER baselines)
+/// huber     d^2 / 2 where |d| <= 1, |d| - 1/2 beyond    (smooth L1: large errors weigh linearly)
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum CriticLoss {
+    /// The squared TD error (default).
+    #[default]
+    Squared,
+    /// The Huber loss with threshold 1.
+    Huber,
 }
 
 /// The rows from which the input normalisers' running mean and variance are
@@ -278,6 +302,7 @@ impl NetworkConfig {
             ("networks.lr_critic", nonneg(self.lr_critic), "must be finite and >= 0"),
             ("networks.clip_obs", self.clip_obs.is_finite() && self.clip_obs > 0.0, "must be finite and > 0"),
             ("networks.norm_eps", self.norm_eps.is_finite() && self.norm_eps > 0.0, "must be finite and > 0"),
+            ("networks.grad_clip_value", nonneg(self.grad_clip_value), "must be finite and >= 0 (0: no clipping)"),
             ("networks.adam_beta1", (0.0..1.0).contains(&self.adam_beta1), "must lie in [0, 1)"),
             ("networks.adam_beta2", (0.0..1.0).contains(&self.adam_beta2), "must lie in [0, 1)"),
             ("networks.adam_epsilon", self.adam_epsilon.is_finite() && self.adam_epsilon > 0.0, "must be > 0"),

@@ -100,8 +100,8 @@ pub use burn;
 /// burn's device type, re-exported for [`LearnerParts::with_device`] (e.g. `Device::flex()`).
 pub use burn::tensor::Device;
 pub use config::{
-    CriticTying, CriticView, MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, NormalizerStats, Stacking,
-    TargetClip, Teammates,
+    CriticLoss, CriticTying, CriticView, MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, NormalizerStats,
+    Stacking, TargetClip, Teammates,
 };
 pub use device::{Adapter, DeviceSpec};
 /// The former name of [`CriticTying`].

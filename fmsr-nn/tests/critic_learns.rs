@@ -90,3 +90,42 @@ fn targets_follow_by_polyak() {
     frozen.update_targets();
     assert_eq!(frozen.learn_batch(&b, &bounds).unwrap(), reference.learn_batch(&b, &bounds).unwrap());
 }
+
+// Guards `networks.critic_loss`: the Huber loss weighs a large TD error
+// linearly. With rewards of -10 and critics near 0 the errors are about 10,
+// so its loss is about |d| - 1/2, far below the squared error's d^2.
+#[test]
+fn the_huber_loss_weighs_large_errors_linearly() {
+    let layout = common::layout(&[2, 1], 4, 2);
+    let loss = |critic_loss| {
+        let net = NetworkConfig::new().with_hidden(16).with_layers(2).with_seed(4).with_critic_loss(critic_loss);
+        let mut l = Maddpg::new(common::parts(&layout, net, 0.0), MaddpgConfig::new()).unwrap();
+        let mut b = common::batch(&layout, 64, 1);
+        b.rewards.iter_mut().for_each(|r| r.fill(-10.0));
+        let bounds = vec![(-100.0, 0.0); 2];
+        l.learn_batch(&b, &bounds).unwrap().0
+    };
+    let (squared, huber) = (loss(fmsr_nn::CriticLoss::Squared), loss(fmsr_nn::CriticLoss::Huber));
+    for i in 0..2 {
+        assert!(squared[i] > 50.0 && (5.0..15.0).contains(&huber[i]), "agent {i}: {} and {}", squared[i], huber[i]);
+    }
+}
+
+// Guards `networks.grad_clip_value`: gradients clipped to 1e-12 leave Adam
+// (epsilon 1e-8) a step of about 1e-4 of the learning rate, so the critics
+// barely move; unclipped, they move by about the learning rate.
+#[test]
+fn clipped_gradients_reach_the_optimiser() {
+    let layout = common::layout(&[2, 1], 4, 2);
+    let moved = |clip: f64| {
+        let net = NetworkConfig::new().with_hidden(16).with_layers(2).with_seed(4).with_grad_clip_value(clip);
+        let mut l = Maddpg::new(common::parts(&layout, net, 0.0), MaddpgConfig::new()).unwrap();
+        let before = l.params(0).unwrap().1;
+        l.learn_batch(&common::batch(&layout, 64, 1), &common::bounds(&layout)).unwrap();
+        let after = l.params(0).unwrap().1;
+        before.iter().zip(&after).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max)
+    };
+    let (free, clipped) = (moved(0.0), moved(1e-12));
+    assert!(free > 1e-4 && clipped < 1e-6, "largest change {free} unclipped, {clipped} clipped");
+    assert!(NetworkConfig::new().with_grad_clip_value(-1.0).validate().is_err());
+}

@@ -17,6 +17,7 @@ mod steps;
 mod stochastic;
 
 use burn::optim::AdamConfig;
+use burn::optim::grad_clipping::GradientClippingConfig;
 use burn::tensor::{Device, Tensor, TensorData};
 use fmsr_core::agent::{Communicator, ObservationLayout};
 use fmsr_core::replay::{ReplayBuffer, ReplayConfig};
@@ -293,7 +294,10 @@ impl Learner {
             adam: AdamConfig::new()
                 .with_beta_1(net.adam_beta1 as f32)
                 .with_beta_2(net.adam_beta2 as f32)
-                .with_epsilon(net.adam_epsilon as f32),
+                .with_epsilon(net.adam_epsilon as f32)
+                .with_grad_clipping(
+                    (net.grad_clip_value > 0.0).then_some(GradientClippingConfig::Value(net.grad_clip_value as f32)),
+                ),
         };
         let groups: Vec<Group> = group_ranges(&net, na, &device)
             .into_iter()

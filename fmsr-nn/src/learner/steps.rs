@@ -8,6 +8,7 @@ use burn::tensor::{Device, Tensor};
 use fmsr_core::sharing::{NetworkKind, SharedParameters};
 use fmsr_graph::MixingMatrix;
 
+use crate::config::CriticLoss;
 use crate::error::NnError;
 use crate::group::Group;
 use crate::mixing::{all_reduce, mix_gradients, mix_stacks};
@@ -54,8 +55,11 @@ impl Learner {
     ///
     /// ```text
     /// y_i = clip(r_i + gamma * min_c Q'_{i,c}(x', g, a'), lo_i, hi_i)
-    /// L_i = sum_c mean (Q_{i,c}(x, g, a) - y_i)^2
+    /// L_i = sum_c mean l(Q_{i,c}(x, g, a) - y_i)
     /// ```
+    ///
+    /// with `l` the squared error, or the Huber loss (`networks.critic_loss`,
+    /// [`crate::CriticLoss`]).
     ///
     /// where `a'` is `next_actions` (`[rows, joint_width]`, agent-major, as
     /// [`Learner::target_actions`] gives) and each critic sees its rule's
@@ -89,6 +93,7 @@ impl Learner {
         let joint = b.actions.clone().unsqueeze_dim::<3>(0);
         let global = Tensor::cat(vec![b.og.clone(), b.actions.clone()], 1).unsqueeze_dim::<3>(0);
         let gamma = self.gamma as f32;
+        let critic_loss = self.net.critic_loss;
         // Each group's batch-mean Q of its first critic, for the epoch's statistics.
         let q_means = std::sync::Mutex::new(Vec::with_capacity(self.groups.len()));
         let losses = self.step_groups(NetworkKind::Critics, |g, group| {
@@ -115,7 +120,16 @@ impl Learner {
                     let mean: Tensor<1> = Tensor::from_inner(mean);
                     q_means.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push((g, mean));
                 }
-                let l = (q - y.clone()).square().mean_dim(1);
+                let d = q - y.clone();
+                let l = match critic_loss {
+                    CriticLoss::Squared => d.square(),
+                    CriticLoss::Huber => {
+                        let abs = d.clone().abs();
+                        let linear = abs.clone().sub_scalar(0.5);
+                        linear.mask_where(abs.lower_equal_elem(1.0), d.square().mul_scalar(0.5))
+                    }
+                }
+                .mean_dim(1);
                 loss = Some(match loss {
                     Some(acc) => acc + l,
                     None => l,
