@@ -414,7 +414,7 @@ impl ExperimentConfig {
 
     /// Parses the resolved experiment of a saved run or policy file. A saved
     /// experiment names every setting of `[env]`; one that does not name
-    /// `env.goal_distance` was written before 2026-11-27, when the only
+    /// `env.goal_distance` is older than the full-angle task, when the only
     /// distance was the yaw error, and is read with `goal_distance = "yaw"`,
     /// so that resuming or evaluating it reproduces its records. A user's
     /// experiment file is read with [`Self::from_toml`], where the default is
@@ -515,7 +515,7 @@ impl ExperimentConfig {
     /// target where they are not the paper's parameters and actors (`IS on
     /// gradients`, `IS on critics`, `IS on actors and critics`), so that an
     /// ablation is never pooled with the method's runs; by `yaw distance` for
-    /// the task of the records before 2026-11-27 (success by the rotation
+    /// the task of the oldest records (success by the rotation
     /// about Z alone, [`GoalDistance::Yaw`]), so that they are never pooled
     /// with runs of the paper's task; by `paper stack` under
     /// [`Stack::Paper`], and otherwise by `gym distance`, `HER target clip`
@@ -777,7 +777,7 @@ mod label_tests {
         assert_eq!(with("not_registered_here", Engine::Rapier), "Dense, NOT_REGISTERED_HERE");
     }
 
-    // Guards the report's grouping of issue 52's experiments: E3's runs with
+    // Guards the report's grouping of the full-angle experiments: E3's runs with
     // another shadow weight, E5's information sharing on gradients and the
     // runs of the yaw-only task before it were labelled as the method alone,
     // so a report over them and E2's runs pooled them as more seeds of
@@ -845,7 +845,7 @@ mod label_tests {
         (base.clone(), changed, [label(path), label(&root.join(base))])
     }
 
-    // Guards the paper-budget pair on MuJoCo (issue 53, item 4): each config
+    // Guards the paper-budget pair on MuJoCo: each config
     // in configs/mujoco/ is the paper's config of its name with `engine`
     // changed, and with the shadow reward's `alpha` (chosen by E3) at most.
     #[test]

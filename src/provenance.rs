@@ -10,8 +10,8 @@
 //! `build_dirty`, from `build.rs` when the binary was built in a git
 //! checkout): where a binary built at one commit runs from a checkout at
 //! another (a long run's kept binary, `scripts/lite_arm.sh --bin`), the two
-//! differ and the build's is the code that ran. Records written before
-//! 2026-11-28 have no build commit.
+//! differ and the build's is the code that ran. The oldest records have no
+//! build commit.
 
 use std::path::Path;
 use std::process::Command;

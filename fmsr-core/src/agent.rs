@@ -13,7 +13,7 @@ use crate::spec::{EnvSpec, JointAction, Observation};
 ///
 /// MAGCLA (the paper's design, the default) gives each actor its own part of
 /// the state; `Global` gives every actor the critics' global observation, an
-/// ablation (issue 31) that is no longer MAGCLA: it tells how much the
+/// ablation that is no longer MAGCLA: it tells how much the
 /// six-agent method loses by its actors' local view.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]

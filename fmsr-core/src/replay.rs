@@ -666,7 +666,7 @@ mod tests {
         }
     }
 
-    // Guards the `global` actor view (issue 31's ablation): every actor's
+    // Guards the `global` actor view (an ablation): every actor's
     // sampled input starts with the global observation of its step (its
     // local one under the default view, tested above), then the goal and the
     // neighbours' previous actions.

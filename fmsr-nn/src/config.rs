@@ -192,7 +192,7 @@ impl TargetClip {
 /// weights): an ablation of the paper's design, in which every agent trains
 /// its own critic (MAGCLA, section III). Named so that "sharing" means only
 /// information sharing (eq. 8), which mixes networks that stay the agents'
-/// own; until 2026-11-27 this was `CriticSharing` (still an alias).
+/// own; it was once `CriticSharing` (still an alias).
 ///
 /// Every critic sees the same input, the global observation, the goal and the
 /// joint action, so a shared part computes one value for all agents:

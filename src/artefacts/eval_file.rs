@@ -41,7 +41,7 @@ pub struct EpisodeTrace {
 #[serde(rename_all = "snake_case")]
 pub enum SuccessRule {
     /// Final rotation error under the threshold, whether or not the object
-    /// was dropped: evaluations written before 2026-11-25 (commit after `bc9bb0c`).
+    /// was dropped: evaluations written before the turned-and-held rule (CHANGELOG).
     Reached,
     /// Final rotation error under the threshold and never dropped.
     ReachedAndHeld,
@@ -81,7 +81,7 @@ pub struct EpisodeRecord {
     /// Active touch sensors summed over the steps (Table I's "Total Contact").
     pub total_contacts: usize,
     /// The object's final orientation against the goal's, under both
-    /// distances, and its tilt (absent in files written before 2026-11-27).
+    /// distances, and its tilt (absent in files older than the full-angle task).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub orientation: Option<FinalOrientation>,
 }
@@ -187,11 +187,11 @@ pub struct EvalReport {
     #[serde(default = "SuccessRule::legacy")]
     pub success_rule: SuccessRule,
     /// The goal distance of the threshold (absent in files written before
-    /// 2026-11-27: [`GoalDistance::Yaw`], the only one then).
+    /// the full-angle task: [`GoalDistance::Yaw`], the only one then).
     #[serde(default = "legacy_distance")]
     pub goal_distance: GoalDistance,
     /// The episodes played by a hand that holds still (absent in files
-    /// written before 2026-11-27, whose chance level is estimated from the
+    /// older than the full-angle task, whose chance level is estimated from the
     /// initial errors).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub still: Option<StillBaseline>,
@@ -330,7 +330,7 @@ impl EvalReport {
 
     /// The success of a hand that holds still on these episodes, with its
     /// 95 % interval: simulated ([`Self::still`]), or in files written before
-    /// 2026-11-27 estimated as the fraction of episodes that start within the
+    /// the full-angle task estimated as the fraction of episodes that start within the
     /// threshold (`None` for files older still). Under the yaw distance the
     /// estimate tends to `threshold / pi` (12.7 % at 0.4 rad); it ignores that
     /// an object left alone may tip over or fall, which the simulation sees.

@@ -193,7 +193,7 @@ fn renderings_section(runs: &[RunRecord], out: &Path, links: &RunLinks) -> Resul
 /// Each evaluated run's test success beside the chance level of its test set.
 fn chance_section(runs: &[RunRecord], links: &RunLinks) -> String {
     let mut md = String::from(
-        "\n## Against chance\n\nThe same test episodes played by a hand that holds still (zero action, simulated on the evaluation's engine; in evaluations written before 2026-11-27, estimated as the episodes that start within the threshold): a result near that level has not learned to rotate. The goal distance is the one the success was counted by: `full` (the full angle between the orientations, `q` and `-q` one orientation), `gym` (gymnasium-robotics' `2 arccos(w)` over [0, 2 pi], the engine's quaternion sign kept) or `yaw` (rotation about Z alone, the oldest records).\n\n| Run | Configuration | Goal distance | Test success | Holding still |\n|---|---|---|---|---|\n",
+        "\n## Against chance\n\nThe same test episodes played by a hand that holds still (zero action, simulated on the evaluation's engine; in evaluations older than the full-angle task, estimated as the episodes that start within the threshold): a result near that level has not learned to rotate. The goal distance is the one the success was counted by: `full` (the full angle between the orientations, `q` and `-q` one orientation), `gym` (gymnasium-robotics' `2 arccos(w)` over [0, 2 pi], the engine's quaternion sign kept) or `yaw` (rotation about Z alone, the oldest records).\n\n| Run | Configuration | Goal distance | Test success | Holding still |\n|---|---|---|---|---|\n",
     );
     for r in runs {
         let Some(e) = &r.eval else { continue };

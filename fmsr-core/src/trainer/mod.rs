@@ -53,7 +53,7 @@ struct TrainerState {
     stored_episodes: u64,
     /// Store index of the first episode the algorithm's storage can hold:
     /// those before it were lost at a restart from a rescue point (0 for a
-    /// run never restarted so, and in checkpoints written before 2026-11-27).
+    /// run never restarted so, and in checkpoints older than the full-angle task).
     #[serde(default)]
     replay_floor: u64,
     /// Each restart from a rescue point, in order.

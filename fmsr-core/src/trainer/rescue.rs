@@ -81,7 +81,7 @@ pub struct Restart {
     /// Episodes the replay buffer held when the rescue point was taken, all
     /// lost: those stored since the run's start or its previous restart, at
     /// most the buffer's capacity ([`Algorithm::storage_capacity`]). `None`
-    /// in records of binaries before 2026-11-29, which did not count it.
+    /// in records of older binaries, which did not count it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub buffer_episodes: Option<u64>,
     /// Exploring episodes collected into the empty buffer before the next update.

@@ -22,7 +22,7 @@ pub struct EpochStats {
     pub drop_rate: f64,
     /// Fraction of evaluation episodes that succeeded under the test's rule,
     /// turned and held: within the training threshold at the last step and
-    /// never dropped (absent in metrics written before 2026-11-27).
+    /// never dropped (absent in metrics older than the full-angle task).
     #[serde(default)]
     pub held_success_rate: f64,
     /// Mean per-step value of each feature over the evaluation episodes.
@@ -48,7 +48,7 @@ pub struct EpochStats {
     /// Each agent's mean `|task part|` of the rewards in this epoch's sampled
     /// batches, HER's relabelled goals included: the task reward as the
     /// critics learn it (empty when the algorithm does not say, and in
-    /// metrics written before 2026-11-27).
+    /// metrics older than the full-angle task).
     #[serde(default)]
     pub batch_task_reward_abs: Vec<f64>,
     /// Each agent's mean `|shadow part|` of the same rewards.

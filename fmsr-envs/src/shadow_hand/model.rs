@@ -226,7 +226,7 @@ mod tests {
         fs::remove_dir_all(&dir).unwrap();
     }
 
-    // Guards the XML parsing of includes (issue 39, item 6): a commented-out
+    // Guards the XML parsing of includes: a commented-out
     // include stays a comment, and a file that is not XML is an error naming it.
     #[test]
     fn includes_are_read_as_xml() {

@@ -33,7 +33,7 @@
 //!
 //! The **yaw error** (`GoalDistance::Yaw`) compares the rotations about Z
 //! alone, wrapped to `[0, pi]`: the distance of every record made before
-//! 2026-11-27. It is blind to a tilted or fallen object.
+//! the full-angle task (CHANGELOG). It is blind to a tilted or fallen object.
 //!
 //! The **tilt** is the angle between the object's own Z axis and the world's:
 //! 0 for an upright object, `pi / 2` for one on its side.
@@ -55,7 +55,7 @@ pub enum GoalDistance {
     /// observation, the achieved goal and the records (the paper's stack).
     Gym,
     /// The difference of the rotations about Z alone: records made before
-    /// 2026-11-27, kept so that they can be reproduced.
+    /// the full-angle task, kept so that they can be reproduced.
     Yaw,
 }
 
@@ -144,7 +144,7 @@ pub fn yaw(q: &[f32]) -> f32 {
 }
 
 /// `|yaw(a) - yaw(b)|` wrapped to `[0, pi]` (in `f32`, bit for bit the
-/// distance of the records made before 2026-11-27).
+/// distance of the records older than the full-angle task).
 #[must_use]
 pub fn yaw_error(a: &[f32], b: &[f32]) -> f32 {
     let d = (yaw(a) - yaw(b)).rem_euclid(std::f32::consts::TAU);

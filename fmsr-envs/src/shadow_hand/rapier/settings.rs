@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 /// (and each of its `solver_iterations`) rebuilds the multibody mass matrix, which
 /// dominates the cost, while `pgs_iterations` add solver passes without that
 /// rebuild. Measured against MuJoCo 3.17 on the block (settings table in
-/// `tests/shadow_hand_settings.rs` and the closing note of issue 4):
+/// `tests/shadow_hand_settings.rs`):
 ///
 /// | timestep | solver it. | PGS it. | rest z (m) | tracking (rad) | active touch | env steps/s |
 /// |---|---|---|---|---|---|---|
@@ -93,8 +93,8 @@ impl RapierSettings {
 
     /// The default solver without the fidelity settings: touch sensors read
     /// only the object's contacts, contacts have no torsional friction and the
-    /// J1/J0 coupling has no slack (how every run before issue 11's fidelity work
-    /// was simulated), for comparisons.
+    /// J1/J0 coupling has no slack (how the earliest runs were simulated, before
+    /// the fidelity settings), for comparisons.
     ///
     /// ```
     /// use fmsr_envs::shadow_hand::RapierSettings;
