@@ -19,7 +19,12 @@ fn matches(pattern: &str) -> Vec<PathBuf> {
 
 #[test]
 fn every_shipped_policy_opens_and_carries_its_test_evaluation() {
-    let files = matches("pretrained/**/*.fmsr");
+    // A long run's rescue point (`rescue/rescue.fmsr`) is the state a running
+    // run goes on from, not a policy; its best snapshot so far is not tracked.
+    let files: Vec<PathBuf> = matches("pretrained/**/*.fmsr")
+        .into_iter()
+        .filter(|p| !p.components().any(|c| c.as_os_str() == "rescue") && !p.ends_with("best_so_far.fmsr"))
+        .collect();
     assert!(files.len() >= 5, "the shipped policies are gone: {files:?}");
     for file in files {
         let record = RunRecord::open(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
