@@ -20,4 +20,4 @@ git rm -q docs/big.gif && mb pretrained/p/huge.fmsr 6 && commit huge
 ! scripts/check_tree_size.sh > /dev/null || { echo "FAILED: a 6 MiB file passed"; exit 1; }
 git rm -q pretrained/p/huge.fmsr && for i in $(seq 1 12); do mb "pretrained/p/f$i.fmsr" 5; done && commit total
 ! scripts/check_tree_size.sh > /dev/null || { echo "FAILED: a 65 MiB tree passed"; exit 1; }
-echo "ok: check_tree_size refuses files over 5 MiB, over 2 MiB outside pretrained/, and trees over 56 MiB"
+echo "ok: check_tree_size refuses files over 5 MiB, over 2 MiB outside pretrained/, and trees over 56 MB"
