@@ -123,13 +123,11 @@ def machine():
     return f"{os.cpu_count()} cores ({cpu}){mem}, {platform.system()}"
 
 
-def svg_curves(runs, path):
-    """Eval success per epoch (thin) and test success at the snapshots (dots)."""
-    w, h, left, bottom, top, right = 760, 360, 50, 40, 20, 170
-    total = max([r["planned"] for r in runs] + [1])
+def svg_axes(total, left=50, bottom=40, label_y=6, w=760, h=360, top=20, right=170):
+    """An SVG chart of success (0 to 1) over `total` epochs: its opening lines
+    (grid, ticks, the epoch axis's label) and its x and y maps."""
     x = lambda e: left + (w - left - right) * e / max(total, 1)
     y = lambda v: top + (h - top - bottom) * (1 - v)
-    colors = {"Dense+FMSR+IS": "#1f77b4", "Dense": "#e6ab02"}
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">',
            f'<rect width="{w}" height="{h}" fill="white"/>']
     for v in (0, 0.25, 0.5, 0.75, 1.0):
@@ -137,7 +135,16 @@ def svg_curves(runs, path):
         out.append(f'<text x="{left - 6}" y="{y(v) + 4:.1f}" text-anchor="end">{v:.2f}</text>')
     for e in range(0, total + 1, 50):
         out.append(f'<text x="{x(e):.1f}" y="{h - bottom + 16}" text-anchor="middle">{e}</text>')
-    out.append(f'<text x="{(w - right + left) / 2}" y="{h - 6}" text-anchor="middle">epoch (20k env steps each)</text>')
+    out.append(f'<text x="{(w - right + left) / 2}" y="{h - label_y}" text-anchor="middle">epoch (20k env steps each)</text>')
+    return out, x, y
+
+
+def svg_curves(runs, path):
+    """Eval success per epoch (thin) and test success at the snapshots (dots)."""
+    w, h, left, bottom, top, right = 760, 360, 50, 40, 20, 170
+    total = max([r["planned"] for r in runs] + [1])
+    out, x, y = svg_axes(total)
+    colors = {"Dense+FMSR+IS": "#1f77b4", "Dense": "#e6ab02"}
     for i, r in enumerate(runs):
         c = colors.get(r["label"], "#555")
         for key, dash in (("train_success_rate", "4 3"), ("success_rate", "")):

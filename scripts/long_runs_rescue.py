@@ -27,19 +27,14 @@ import csv
 import sys
 from pathlib import Path
 
+from long_runs_record import keeper_env
+
 # Seconds of training between two rescue points of a run: about a day.
 EVERY = 86400
 
 
-def read_env(path):
-    """KEY=VALUE lines of a small env file (rescue.env), quotes dropped; {} without the file."""
-    env = {}
-    if path.is_file():
-        for line in path.read_text().splitlines():
-            if "=" in line:
-                k, v = line.split("=", 1)
-                env[k] = v[1:-1] if len(v) >= 2 and v[0] == v[-1] == '"' else v
-    return env
+# rescue.env is read as the keeper's env files are (KEY=VALUE, quotes dropped).
+read_env = keeper_env
 
 
 def seconds_since(rows, epoch):

@@ -16,10 +16,13 @@ the 500 trials, on MuJoCo), and the table of departures in docs/design.md
 import argparse
 import csv
 import json
-import math
+import sys
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO / "scripts"))
+import long_runs_final  # noqa: E402  (the intervals, as the long runs' sections compute them)
+import long_runs_record  # noqa: E402  (the charts' axes)
 
 # The paper's Table I (egg, 100 trials) and Table II (egg, 500 trials; its
 # "Ours" is Dense+FMSR+IS, compared there with Sparse).
@@ -39,33 +42,22 @@ CAMPAIGNS = [
 ]
 # Okabe and Ito's colours, as fmsr report draws the methods.
 COLOURS = {"Dense+FMSR+IS": "#0072B2", "Dense": "#E69F00"}
-Z = 1.959963984540054
 
 
 def wilson(k, n):
-    if n == 0:
-        return (math.nan, math.nan)
-    p = k / n
-    d = 1 + Z * Z / n
-    c = (p + Z * Z / (2 * n)) / d
-    h = Z * math.sqrt(p * (1 - p) / n + Z * Z / (4 * n * n)) / d
-    return (max(0.0, c - h), min(1.0, c + h))
+    """The 95 % Wilson interval (lo, hi) of k successes in n (long_runs_final's)."""
+    return long_runs_final.wilson(k, n)[1:]
 
 
 def newcombe(k1, n1, k2, n2):
-    """Newcombe's hybrid score interval of p1 - p2."""
-    p1, p2 = k1 / n1, k2 / n2
-    l1, u1 = wilson(k1, n1)
-    l2, u2 = wilson(k2, n2)
-    d = p1 - p2
-    return (d - math.sqrt((p1 - l1) ** 2 + (u2 - p2) ** 2), d + math.sqrt((u1 - p1) ** 2 + (p2 - l2) ** 2))
+    """Newcombe's hybrid score interval of p1 - p2 (long_runs_final's)."""
+    return long_runs_final.newcombe(long_runs_final.wilson(k1, n1), long_runs_final.wilson(k2, n2))[1:]
 
 
 def welch(a, b):
-    """Difference of two means (mean, std, n) and its normal 95 % interval."""
-    d = a["mean"] - b["mean"]
-    se = math.sqrt(a["std"] ** 2 / a["n"] + b["std"] ** 2 / b["n"])
-    return d, (d - Z * se, d + Z * se)
+    """Difference of two means (mean, std, n) and its normal 95 % interval (long_runs_final's)."""
+    d, lo, hi = long_runs_final.mean_difference((a["mean"], a["std"], a["n"]), (b["mean"], b["std"], b["n"]))
+    return d, (lo, hi)
 
 
 def verdict(interval, direction):
@@ -78,8 +70,7 @@ def verdict(interval, direction):
     return "cannot tell"
 
 
-def read_json(path):
-    return json.loads(path.read_text()) if path.exists() else None
+read_json = long_runs_final.read_json
 
 
 def load(records):
@@ -128,16 +119,7 @@ def svg(arms, path):
     """Fig. 3: per-epoch success at the training threshold, one colour per method."""
     w, h, left, bottom, top, right = 760, 360, 55, 45, 20, 170
     total = max(len(a["metrics"]) for a in arms.values())
-    x = lambda e: left + (w - left - right) * e / max(total, 1)
-    y = lambda v: top + (h - top - bottom) * (1 - v)
-    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" font-family="sans-serif" font-size="12">',
-           f'<rect width="{w}" height="{h}" fill="white"/>']
-    for v in (0, 0.25, 0.5, 0.75, 1.0):
-        out.append(f'<line x1="{left}" x2="{w - right}" y1="{y(v):.1f}" y2="{y(v):.1f}" stroke="#ddd"/>')
-        out.append(f'<text x="{left - 6}" y="{y(v) + 4:.1f}" text-anchor="end">{v:.2f}</text>')
-    for e in range(0, total + 1, 50):
-        out.append(f'<text x="{x(e):.1f}" y="{h - bottom + 16}" text-anchor="middle">{e}</text>')
-    out.append(f'<text x="{(w - right + left) / 2}" y="{h - 8}" text-anchor="middle">epoch (20k env steps each)</text>')
+    out, x, y = long_runs_record.svg_axes(total, left=left, bottom=bottom, label_y=8)
     out.append(f'<text x="14" y="{(h - bottom + top) / 2}" text-anchor="middle" '
                f'transform="rotate(-90 14 {(h - bottom + top) / 2})">success rate, 50 episodes at 0.1 rad</text>')
     for i, (label, a) in enumerate(arms.items()):
