@@ -237,6 +237,7 @@ pub fn evaluate_source_with<E: Env + ContactReadout + Send>(
         records,
         initial_distances: Vec::new(),
         trace: first_trace.unwrap_or_default(),
+        precision: source.precision(),
         seconds: start.elapsed().as_secs_f64(),
     })
 }

@@ -115,14 +115,16 @@ pub use matd3::{Matd3, Matd3Rule};
 pub use net::{Critics, NetShape, StackLayout, StackedLinear, StackedMlp, StackedMlpConfig};
 pub use normalizer::Normalizer;
 pub use off_policy::{OffPolicy, StepLosses, UpdateRule};
-pub use state::{RescueLevel, RuleState, policy_from_learner_state, rescue_state};
+pub use state::{
+    PolicyPrecision, RescueLevel, RuleState, policy_at_precision, policy_from_learner_state, rescue_state,
+};
 
 /// Everything needed for typical use: `use fmsr_nn::prelude::*;`.
 pub mod prelude {
     pub use crate::{
         AnyLearner, ConfiguredRule, Device, DeviceSpec, LearnerParts, Maddpg, MaddpgConfig, Masac, MasacConfig, Matd3,
-        Matd3Config, NetShape, NetworkConfig, NnError, Normalizer, StackedMlp, StackedMlpConfig, Stacking,
-        policy_from_learner_state,
+        Matd3Config, NetShape, NetworkConfig, NnError, Normalizer, PolicyPrecision, StackedMlp, StackedMlpConfig,
+        Stacking, policy_at_precision, policy_from_learner_state,
     };
     pub use fmsr_core::algorithm::Algorithm;
     pub use fmsr_core::policy::{ActMode, Policy, PolicyState};

@@ -561,6 +561,55 @@ pub fn policy_from_learner_state(learner_state: &[u8]) -> Result<Vec<u8>, NnErro
     encode(&POLICY, &PolicyState { algorithm: state.algorithm, actors })
 }
 
+/// The precision of a policy state's actors (its normalisers are always kept whole).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PolicyPrecision {
+    /// `f32`, as trained: bit for bit the learner's actors.
+    #[default]
+    Full,
+    /// `f16` (each parameter within about 5e-4 of itself; about half the
+    /// bytes): for shipping, where the policy's evaluations hold.
+    Half,
+}
+
+impl PolicyPrecision {
+    /// The name in commands and records.
+    #[must_use]
+    pub fn key(self) -> &'static str {
+        match self {
+            Self::Full => "full",
+            Self::Half => "half",
+        }
+    }
+
+    /// The precision of a policy state's bytes, by their framing (no check of
+    /// the rest: reading them does that).
+    #[must_use]
+    pub fn of(policy: &[u8]) -> Self {
+        if half::is_half_policy(policy) { Self::Half } else { Self::Full }
+    }
+}
+
+/// A policy state (of either precision) at `precision`. From `Half` to
+/// `Full` the values are the `f32` nearest each `f16`, not the trained ones.
+///
+/// # Errors
+/// [`NnError::CorruptState`] when `policy` is not a policy state;
+/// [`NnError::InvalidConfig`] at `Half` for a parameter beyond `f16`'s range.
+pub fn policy_at_precision(policy: &[u8], precision: PolicyPrecision) -> Result<Vec<u8>, NnError> {
+    let state = decode_policy(policy)?;
+    match precision {
+        PolicyPrecision::Full => encode(&POLICY, &state),
+        PolicyPrecision::Half => half::pack_policy(state),
+    }
+}
+
+/// A policy state of either precision, its actors as `f32`.
+fn decode_policy(bytes: &[u8]) -> Result<PolicyState, NnError> {
+    if half::is_half_policy(bytes) { half::unpack_policy(bytes) } else { decode(&POLICY, bytes) }
+}
+
 impl Learner {
     /// The acting state alone: every agent's actor and input normaliser.
     pub(crate) fn save_policy(&self, algorithm: &str) -> Result<Vec<u8>, NnError> {
@@ -575,11 +624,11 @@ impl Learner {
     }
 
     /// Restores a state written by [`Learner::save_policy`] (or
-    /// [`policy_from_learner_state`]): the actors (their targets set equal)
+    /// [`policy_from_learner_state`], at either [`PolicyPrecision`]): the actors (their targets set equal)
     /// and their normalisers; critics, optimisers, RNG and replay stay as
     /// they are. Everything is checked before anything changes.
     pub(crate) fn load_policy(&mut self, algorithm: &str, bytes: &[u8]) -> Result<(), NnError> {
-        let state: PolicyState = decode(&POLICY, bytes)?;
+        let state = decode_policy(bytes)?;
         if state.algorithm != algorithm {
             return Err(NnError::StateMismatch {
                 what: "algorithm".into(),

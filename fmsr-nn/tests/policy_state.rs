@@ -4,7 +4,10 @@
 //! every algorithm, and one of another stacking to float rounding (a batched
 //! matmul sums in another order); the policy taken from a whole learner state equals the one
 //! saved by the learner; a policy of another shape or algorithm, or corrupted
-//! bytes, is an `NnError` that leaves the learner unchanged.
+//! bytes, is an `NnError` that leaves the learner unchanged. A policy at half
+//! precision (for shipping) takes about half the bytes, acts within f16's
+//! rounding of the full one, says its precision, and converts back and forth
+//! without drifting.
 
 use crate::common;
 
@@ -13,6 +16,7 @@ use common::AlgorithmKind;
 use fmsr_core::agent::ObservationLayout;
 use fmsr_core::policy::PolicyOutput;
 use fmsr_nn::prelude::*;
+use fmsr_nn::{RescueLevel, rescue_state};
 
 fn net(seed: u64, stacking: Stacking) -> NetworkConfig {
     NetworkConfig::new().with_hidden(24).with_layers(2).with_seed(seed).with_stacking(stacking)
@@ -91,4 +95,54 @@ fn bad_policies_are_errors_that_change_nothing() {
         assert!(matches!(err, NnError::StateMismatch { .. }) && err.to_string().contains(what), "{err}");
     }
     assert_eq!(format!("{:?}", fresh.act(&x, 2, ActMode::Evaluate).unwrap()), before);
+}
+
+#[test]
+fn a_half_policy_is_half_the_bytes_and_acts_within_rounding() {
+    let layout = common::layout(&[2, 3, 1], 7, 3);
+    let x = common::inputs(&layout, 4, 7);
+    for kind in AlgorithmKind::ALL {
+        let mut a = trained(kind, &layout, Stacking::PerAgent);
+        let full = a.save_policy().unwrap();
+        let half = policy_at_precision(&full, PolicyPrecision::Half).unwrap();
+        assert_eq!(PolicyPrecision::of(&full), PolicyPrecision::Full);
+        assert_eq!(PolicyPrecision::of(&half), PolicyPrecision::Half);
+        // The normalisers stay whole, so a little over half of the bytes.
+        assert!(half.len() < full.len() * 6 / 10, "{kind:?}: {} of {} bytes", half.len(), full.len());
+        // Full to full is the same bytes; half to full to half too.
+        assert_eq!(policy_at_precision(&full, PolicyPrecision::Full).unwrap(), full);
+        let widened = policy_at_precision(&half, PolicyPrecision::Full).unwrap();
+        assert_ne!(widened, full, "{kind:?}: rounding to f16 changed nothing");
+        assert_eq!(policy_at_precision(&widened, PolicyPrecision::Half).unwrap(), half);
+
+        let expected = a.act(&x, 4, ActMode::Evaluate).unwrap();
+        let mut b = common::learner(kind, &layout, net(99, Stacking::All));
+        b.load_policy(&half).unwrap();
+        let found = b.act(&x, 4, ActMode::Evaluate).unwrap();
+        let d = max_difference(&found, &expected);
+        assert!(d > 0.0 && d < 1e-2, "{kind:?}: a half policy's actions differ by {d}");
+        // Loading the widened bytes acts exactly as loading the half ones.
+        let mut c = common::learner(kind, &layout, net(7, Stacking::All));
+        c.load_policy(&widened).unwrap();
+        assert_eq!(format!("{:?}", c.act(&x, 4, ActMode::Evaluate).unwrap()), format!("{found:?}"));
+    }
+}
+
+#[test]
+fn bad_half_policies_are_errors() {
+    let layout = common::layout(&[2, 3, 1], 7, 3);
+    let full = trained(AlgorithmKind::Maddpg, &layout, Stacking::PerAgent).save_policy().unwrap();
+    let half = policy_at_precision(&full, PolicyPrecision::Half).unwrap();
+    let mut flipped = half.clone();
+    let mid = flipped.len() / 2;
+    flipped[mid] ^= 0x10;
+    let mut fresh = common::learner(AlgorithmKind::Maddpg, &layout, net(5, Stacking::PerAgent));
+    for bad in [&flipped[..], &half[..half.len() - 3]] {
+        assert!(matches!(fresh.load_policy(bad), Err(NnError::CorruptState { .. })));
+        assert!(matches!(policy_at_precision(bad, PolicyPrecision::Full), Err(NnError::CorruptState { .. })));
+    }
+    // A half-precision learner state (a rescue point) is not a policy.
+    let state = fresh.save_state(false).unwrap();
+    let rescue = rescue_state(&state, RescueLevel::Half).unwrap();
+    assert!(matches!(policy_at_precision(&rescue, PolicyPrecision::Half), Err(NnError::CorruptState { .. })));
 }

@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use fmsr_core::interval::Interval;
 use fmsr_core::metrics::{EpisodeOutcome, EpisodeSummary, FailureCounts, FailureRow, MeanStd, StabilityRow};
 use fmsr_envs::shadow_hand::GoalDistance;
+use fmsr_nn::PolicyPrecision;
 
 use crate::error::ExperimentError;
 use crate::experiment::EpisodeSet;
@@ -215,8 +216,16 @@ pub struct EvalReport {
     pub initial_distances: Vec<f32>,
     /// The per-step series of the first test episode.
     pub trace: EpisodeTrace,
+    /// The precision of the actors that played (absent: `full`, the only one
+    /// before half-precision policy files).
+    #[serde(default, skip_serializing_if = "is_full")]
+    pub precision: PolicyPrecision,
     /// Wall time of the evaluation (s).
     pub seconds: f64,
+}
+
+fn is_full(p: &PolicyPrecision) -> bool {
+    *p == PolicyPrecision::Full
 }
 
 /// The distance of evaluations that do not name one.
@@ -381,6 +390,26 @@ impl EvalReport {
         (!self.records.is_empty()).then_some((lost, gained))
     }
 
+    /// The episodes (by seed) whose outcome differs between this evaluation
+    /// and `other` of the same episodes, and how many both played: `None` when
+    /// either lacks per-episode records.
+    #[must_use]
+    pub fn outcome_changes(&self, other: &EvalReport) -> Option<(usize, usize)> {
+        if self.records.is_empty() || other.records.is_empty() {
+            return None;
+        }
+        let theirs: std::collections::BTreeMap<u64, EpisodeOutcome> =
+            other.records.iter().map(|r| (r.seed, r.outcome)).collect();
+        let (mut both, mut changed) = (0, 0);
+        for r in &self.records {
+            if let Some(&o) = theirs.get(&r.seed) {
+                both += 1;
+                changed += usize::from(o != r.outcome);
+            }
+        }
+        Some((changed, both))
+    }
+
     /// Whether `other` has the same results: everything but the wall time and
     /// the configuration's label, which later builds may spell otherwise
     /// (every episode's outcome, final angle and grasp measures, the trace).
@@ -417,10 +446,11 @@ impl EvalReport {
         let mut out = String::new();
         let _ = writeln!(
             out,
-            "{} ({}, {} epochs, {} {} episodes at {} rad by the {} distance, {:.0} s)\n",
+            "{} ({}, {} epochs{}, {} {} episodes at {} rad by the {} distance, {:.0} s)\n",
             self.name,
             self.engine,
             self.epochs,
+            if self.precision == PolicyPrecision::Full { "" } else { ", actors at half precision" },
             self.episodes,
             self.set.key(),
             self.threshold,
@@ -520,6 +550,7 @@ mod tests {
             records,
             initial_distances: Vec::new(),
             trace: EpisodeTrace::default(),
+            precision: PolicyPrecision::Full,
             seconds: 0.0,
         }
     }

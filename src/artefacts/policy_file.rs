@@ -35,6 +35,7 @@ use crate::error::ExperimentError;
 use crate::experiment::{Engine, EpisodeSet, ExperimentConfig};
 use crate::provenance::Provenance;
 use fmsr_envs::shadow_hand::GoalDistance;
+use fmsr_nn::PolicyPrecision;
 
 /// The policy file format this build writes: 2, with CRC-32C. Version 1 (the
 /// same body with FNV-1a) is still read.
@@ -135,6 +136,24 @@ impl PolicyFile {
     #[must_use]
     pub fn eval_for(&self, engine: &str, set: EpisodeSet) -> Option<&EvalReport> {
         self.eval_under(engine, set, self.config.env.goal_distance)
+    }
+
+    /// The precision of the actors ([`PolicyFile::at_precision`]).
+    #[must_use]
+    pub fn precision(&self) -> PolicyPrecision {
+        PolicyPrecision::of(&self.policy)
+    }
+
+    /// This policy with its actors at `precision`. The evaluations it carries
+    /// stay, each saying the precision it was measured at, until `fmsr eval
+    /// --record` replaces them: `fmsr eval` of the file compares a new
+    /// evaluation with them, episode by episode.
+    ///
+    /// # Errors
+    /// The errors of [`fmsr_nn::policy_at_precision`]: a corrupt policy state,
+    /// or a parameter beyond `f16`'s range.
+    pub fn at_precision(&self, precision: PolicyPrecision) -> Result<Self, ExperimentError> {
+        Ok(Self { policy: fmsr_nn::policy_at_precision(&self.policy, precision)?, ..self.clone() })
     }
 
     /// The evaluation the file carries for `engine` and `set` under `distance`.
@@ -338,6 +357,16 @@ impl Source {
             None => self.config()?.engine,
         };
         Ok(RenderTarget::default_for(&RunDir::new(self.home()), episode, engine))
+    }
+
+    /// The precision of the actors that act: a run's are `full`; a policy
+    /// file's as exported.
+    #[must_use]
+    pub fn precision(&self) -> PolicyPrecision {
+        match self {
+            Self::Run(_) => PolicyPrecision::Full,
+            Self::Policy { file, .. } => file.precision(),
+        }
     }
 
     /// The path as given.

@@ -104,7 +104,7 @@ pub(super) struct EvalArgs {
     #[arg(long, value_enum, default_value = "test")]
     pub(super) set: SetArg,
     /// With a policy file: write this evaluation into the file, in place of
-    /// the one it carries for the same engine and episodes.
+    /// the one it carries for the same engine and episodes (after comparing the two).
     #[arg(long)]
     pub(super) record: bool,
     /// Evaluate on this engine (default: the one the run trained on); another
@@ -126,6 +126,11 @@ pub(super) struct EvalArgs {
     /// `eval-...-<distance>.json`.
     #[arg(long, value_enum)]
     pub(super) goal_distance: Option<DistanceArg>,
+    /// With a policy file: every evaluation the file carries, again (its engine,
+    /// episode set, episodes and goal distance), each compared with the carried one;
+    /// with --record, each then replaces it (after `fmsr export --precision half`, say).
+    #[arg(long, conflicts_with_all = ["episodes", "engine", "out", "goal_distance"])]
+    pub(super) carried: bool,
 }
 
 #[derive(Debug, Clone, Copy, clap::ValueEnum)]
@@ -147,11 +152,31 @@ impl From<DistanceArg> for GoalDistance {
 
 #[derive(Debug, clap::Args)]
 pub(super) struct ExportArgs {
-    /// The trained run directory.
+    /// The trained run directory, or a policy file to write again at another precision.
     pub(super) run: PathBuf,
-    /// The policy file to write (default `RUN/policy.fmsr`).
+    /// The policy file to write (default `RUN/policy.fmsr`; needed when RUN is a policy file).
     #[arg(long)]
     pub(super) out: Option<PathBuf>,
+    /// The actors' precision: `full` (f32, as trained) or `half` (f16, about half the
+    /// bytes; the file keeps its evaluations, measured at full precision, until `fmsr
+    /// eval --record` gives it its own, and `fmsr eval` compares them episode by episode).
+    #[arg(long, value_enum, default_value = "full")]
+    pub(super) precision: PrecisionArg,
+}
+
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub(super) enum PrecisionArg {
+    Full,
+    Half,
+}
+
+impl From<PrecisionArg> for fmsr_nn::PolicyPrecision {
+    fn from(p: PrecisionArg) -> Self {
+        match p {
+            PrecisionArg::Full => Self::Full,
+            PrecisionArg::Half => Self::Half,
+        }
+    }
 }
 
 #[derive(Debug, clap::Args)]

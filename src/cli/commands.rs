@@ -264,24 +264,77 @@ fn train_with(args: &TrainArgs, comm: Arc<dyn Communicator>) -> Result<RunDir> {
     Ok(dir)
 }
 
+/// One evaluation's choices, from the command line or from a carried evaluation.
+struct EvalChoice {
+    episodes: Option<usize>,
+    set: EpisodeSet,
+    engine: Option<Engine>,
+    goal_distance: Option<fmsr_envs::shadow_hand::GoalDistance>,
+    out: Option<PathBuf>,
+    record: bool,
+}
+
 pub(super) fn eval(args: &EvalArgs) -> Result<()> {
-    let source = Source::open(&args.run)?;
+    let choice = EvalChoice {
+        episodes: args.episodes,
+        set: EpisodeSet::from(args.set),
+        engine: args.engine.map(Engine::from),
+        goal_distance: args.goal_distance.map(Into::into),
+        out: args.out.clone(),
+        record: args.record,
+    };
+    if !args.carried {
+        return eval_once(&args.run, &choice);
+    }
+    let Source::Policy { file, path } = Source::open(&args.run)? else {
+        return refuse("--carried", "a run directory carries no evaluations: give it a policy file".into());
+    };
+    if file.evals.is_empty() {
+        return refuse("--carried", format!("{} carries no evaluation", path.display()));
+    }
+    for carried in &file.evals {
+        let engine = match carried.engine.as_str() {
+            "rapier" => Engine::Rapier,
+            "mujoco" => Engine::Mujoco,
+            other => {
+                return refuse(
+                    "--carried",
+                    format!("{} carries an evaluation on an unknown engine {other:?}", path.display()),
+                );
+            }
+        };
+        let one = EvalChoice {
+            episodes: Some(carried.episodes),
+            set: carried.set,
+            engine: Some(engine),
+            goal_distance: Some(carried.goal_distance),
+            out: None,
+            record: args.record,
+        };
+        // Each --record rewrites the file: read it again for the next.
+        eval_once(&path, &one)?;
+    }
+    Ok(())
+}
+
+fn eval_once(run: &std::path::Path, choice: &EvalChoice) -> Result<()> {
+    let source = Source::open(run)?;
     let mut config = source.config().context(|| "reading the run's config.toml")?;
-    if let Some(n) = args.episodes {
+    if let Some(n) = choice.episodes {
         config.eval.episodes = n;
     }
     let trained_under = config.env.goal_distance;
-    if let Some(d) = args.goal_distance {
-        config.env.goal_distance = d.into();
+    if let Some(d) = choice.goal_distance {
+        config.env.goal_distance = d;
     }
     config.validate()?;
-    let engine = args.engine.map_or(config.engine, Engine::from);
-    let set = EpisodeSet::from(args.set);
+    let engine = choice.engine.unwrap_or(config.engine);
+    let set = choice.set;
     let dt = crate::experiment::MODEL_TIMESTEP * config.env.substeps as f64;
     let env =
         config.env_config().init_engine(engine).context(|| format!("building the {} Shadow Hand", engine.key()))?;
     let what = format!("{} on {} ({} episodes)", set.key(), engine.key(), config.eval.episodes);
-    let mut shown = StageProgress::new(&format!("eval {}", args.run.display()), config.eval.episodes);
+    let mut shown = StageProgress::new(&format!("eval {}", run.display()), config.eval.episodes);
     shown.stage(&format!("playing the {what}"));
     let mut on_progress = |p: EvalProgress| match p {
         EvalProgress::Policy { done, .. } => shown.set(done),
@@ -291,7 +344,7 @@ pub(super) fn eval(args: &EvalArgs) -> Result<()> {
     shown.finish();
     println!("{}", summary.to_markdown());
     let out = match &source {
-        Source::Run(dir) => Some(args.out.clone().unwrap_or_else(|| {
+        Source::Run(dir) => Some(choice.out.clone().unwrap_or_else(|| {
             let path = dir.eval_json_for(engine, config.engine, set);
             if config.env.goal_distance == trained_under {
                 return path;
@@ -299,14 +352,15 @@ pub(super) fn eval(args: &EvalArgs) -> Result<()> {
             let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("eval").to_owned();
             path.with_file_name(format!("{stem}-{}.json", config.env.goal_distance.key()))
         })),
-        Source::Policy { .. } => args.out.clone(),
+        Source::Policy { .. } => choice.out.clone(),
     };
     if let Some(out) = out {
         crate::artefacts::write_eval(&summary, &out)?;
         println!("evaluation written to {}", out.display());
     }
     match &source {
-        Source::Policy { file, path } if args.record => {
+        Source::Policy { file, path } if choice.record => {
+            compare_with_carried(file, path, &summary);
             let mut file = file.as_ref().clone();
             file.record_eval(summary);
             file.write(path)?;
@@ -318,7 +372,7 @@ pub(super) fn eval(args: &EvalArgs) -> Result<()> {
             );
         }
         Source::Policy { file, path } => compare_with_carried(file, path, &summary),
-        Source::Run(_) if args.record => {
+        Source::Run(_) if choice.record => {
             return refuse(
                 "--record",
                 "--record writes into a policy file; a run's evaluation is written to its directory".into(),
@@ -337,6 +391,19 @@ fn compare_with_carried(file: &PolicyFile, path: &std::path::Path, summary: &cra
             "{}: the same results as the evaluation the file carries (every episode's outcome and final angle)",
             path.display()
         ),
+        Some(recorded) if recorded.precision != summary.precision => {
+            let changed = summary.outcome_changes(recorded).map_or_else(String::new, |(changed, both)| {
+                format!("; {changed} of the {both} episodes end otherwise")
+            });
+            println!(
+                "{}: at {} precision {} (the evaluation the file carries, at {} precision: {}){changed}.",
+                path.display(),
+                summary.precision.key(),
+                summary.success_cell(),
+                recorded.precision.key(),
+                recorded.success_cell()
+            );
+        }
         Some(recorded) if recorded.success_rule != summary.success_rule => println!(
             "{}: the file carries an evaluation under the old definition of success ({}: {}); this one counts a drop as a failure \
              (`fmsr eval {} --record` writes it into the file)",
@@ -362,21 +429,44 @@ fn compare_with_carried(file: &PolicyFile, path: &std::path::Path, summary: &cra
 }
 
 pub(super) fn export(args: &ExportArgs) -> Result<()> {
-    let dir = RunDir::new(&args.run);
-    let file = PolicyFile::from_run(&dir).context(|| format!("exporting {}", dir.root().display()))?;
-    let out = args.out.clone().unwrap_or_else(|| dir.root().join(POLICY_FILE_NAME));
+    let precision = fmsr_nn::PolicyPrecision::from(args.precision);
+    let (file, out) = match Source::open(&args.run)? {
+        Source::Run(dir) => {
+            let file = PolicyFile::from_run(&dir).context(|| format!("exporting {}", dir.root().display()))?;
+            let out = args.out.clone().unwrap_or_else(|| dir.root().join(POLICY_FILE_NAME));
+            (file, out)
+        }
+        Source::Policy { file, path } => {
+            let Some(out) = args.out.clone() else {
+                return refuse(
+                    "--out",
+                    format!("{} is a policy file: name the file to write with --out", path.display()),
+                );
+            };
+            (*file, out)
+        }
+    };
+    let file = file
+        .at_precision(precision)
+        .context(|| format!("writing {} at {} precision", out.display(), precision.key()))?;
     file.write(&out)?;
     if file.evals.is_empty() {
         eprintln!("note: the run has no evaluation (run `fmsr eval` on it first), so the file carries none");
+    } else if file.evals.iter().any(|e| e.precision != precision) {
+        eprintln!(
+            "note: the file carries evaluations measured at another precision: `fmsr eval {}` compares a new one with them, `--record` makes it the file's own",
+            out.display()
+        );
     }
     if file.provenance.commit.is_none() {
         eprintln!("note: the run names no commit (it predates provenance.json, or was not started in a git checkout)");
     }
     let bytes = std::fs::metadata(&out).map_or(0, |m| m.len());
     println!(
-        "wrote {} ({:.1} MB: {} after {} epochs, commit {})",
+        "wrote {} ({:.1} MB, {} precision: {} after {} epochs, commit {})",
         out.display(),
         bytes as f64 / 1e6,
+        precision.key(),
         file.config.label(),
         file.epochs,
         file.provenance.commit_label()

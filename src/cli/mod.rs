@@ -165,6 +165,7 @@ fn execute(command: Command) -> Result<(), ExperimentError> {
                 engine: None,
                 out: None,
                 goal_distance: None,
+                carried: false,
             })?;
             let config = dir.load_config()?;
             let mut runs = vec![dir.root().to_path_buf()];
