@@ -85,8 +85,9 @@
 # test set, on the validation episodes and on the first TRIALS test episodes
 # (the paper's Table II: 500), on rapier and on MuJoCo, each engine named
 # (`--engine`: `fmsr eval` alone takes the engine the run trained on), into
-# RECORDS/<run>/final/; that policy, carrying its evaluations
-# (`fmsr eval --record`), as pretrained/<run>SUFFIX/policy.fmsr, with the
+# RECORDS/<run>/final/; that policy at half precision, carrying its own
+# evaluations (`fmsr eval --record`, also in final/ as *-half.json), as
+# pretrained/<run>SUFFIX/policy.fmsr, with the
 # snapshot best on the validation episodes beside it (best_on_validation.fmsr,
 # unless it is the final one), test episode 0 rendered on the engine the run
 # trained on and a README; the rescue point and best_so_far.fmsr, which an
@@ -623,25 +624,38 @@ eval_once() {
 
 # Copies policy file $1 to $2 and writes into it its evaluations: the fixed
 # test set and the validation episodes, each on both engines; unless $2 exists.
-# With $3, each evaluation also goes there as JSON (test-rapier.json,
-# validation-rapier.json, test-mujoco.json, validation-mujoco.json), from the
-# same `fmsr eval`. Every engine is named: `fmsr eval` without `--engine` takes
-# the one the run trained on, which for the MuJoCo-trained pair would have put
+# The file shipped is at half precision (`fmsr export --precision half`: about
+# half the bytes, which the tree needs), carrying its own evaluations, played
+# again at that precision after those of the policy as trained. With $3, each
+# evaluation also goes there as JSON (test-rapier.json, validation-rapier.json,
+# test-mujoco.json, validation-mujoco.json: the policy as trained; the same
+# names with -half: the file shipped, its .log saying how many episodes end
+# otherwise). Every engine is named: `fmsr eval` without `--engine` takes the
+# one the run trained on, which for the MuJoCo-trained pair would have put
 # MuJoCo evaluations in the rapier files.
 carry_evaluations() {
-  local from=$1 to=$2 json=${3:-} what args
+  local from=$1 to=$2 json=${3:-} what args pass name
   [ -f "$to" ] && return
   cp "$from" "$to.tmp.fmsr"
-  for what in test-rapier validation-rapier test-mujoco validation-mujoco; do
-    args=(--engine "${what#*-}")
-    [ "${what%%-*}" = test ] || args+=(--set validation)
-    if [ -n "$json" ]; then
-      nice -n 5 "$fmsr" eval "$to.tmp.fmsr" "${args[@]}" --record --out "$json/$what.json.tmp" > "$json/$what.log" 2>&1 \
-        || die "fmsr eval $to ${args[*]} failed: $json/$what.log"
-      mv "$json/$what.json.tmp" "$json/$what.json"
-    else
-      nice -n 5 "$fmsr" eval "$to.tmp.fmsr" "${args[@]}" --record > /dev/null
+  for pass in full half; do
+    if [ "$pass" = half ]; then
+      "$fmsr" export "$to.tmp.fmsr" --precision half --out "$to.half.tmp.fmsr" > /dev/null 2>&1 \
+        || die "fmsr export $from --precision half failed"
+      mv "$to.half.tmp.fmsr" "$to.tmp.fmsr"
     fi
+    for what in test-rapier validation-rapier test-mujoco validation-mujoco; do
+      args=(--engine "${what#*-}")
+      [ "${what%%-*}" = test ] || args+=(--set validation)
+      name=$what
+      [ "$pass" = full ] || name=$what-half
+      if [ -n "$json" ]; then
+        nice -n 5 "$fmsr" eval "$to.tmp.fmsr" "${args[@]}" --record --out "$json/$name.json.tmp" > "$json/$name.log" 2>&1 \
+          || die "fmsr eval $to ${args[*]} failed: $json/$name.log"
+        mv "$json/$name.json.tmp" "$json/$name.json"
+      else
+        nice -n 5 "$fmsr" eval "$to.tmp.fmsr" "${args[@]}" --record > /dev/null
+      fi
+    done
   done
   mv "$to.tmp.fmsr" "$to"
 }

@@ -279,6 +279,8 @@ def load_final(run_records):
     finals = {k: read_json(d / f"{k}.json") for k in FINALS}
     if any(v is None for v in finals.values()):
         return None
+    # The shipped file's own evaluations, at half precision (absent before it was shipped so).
+    halves = {k: read_json(d / f"{k}-half.json") for k in FINALS if not k.startswith("trials")}
     config = (run_records / "config.toml").read_text()
     method = config_value(config, "method")
     k = best(run_records)
@@ -290,7 +292,7 @@ def load_final(run_records):
         metrics = list(csv.DictReader(fh))
     env_steps = int(metrics[-1]["env_steps"]) if metrics else 0
     return {"name": run_records.name, "label": LABELS[method], "task": finals["test-rapier"]["task"],
-            "engine": engine_of(finals["test-rapier"], "trained_on"), "finals": finals, "best": k, "best_test": snap, "best_validation_episodes": val["episodes"] if val else 0,
+            "engine": engine_of(finals["test-rapier"], "trained_on"), "finals": finals, "halves": halves, "best": k, "best_test": snap, "best_validation_episodes": val["episodes"] if val else 0,
             "epochs": len(metrics), "env_steps": env_steps,
             "within": training_threshold(run_records / "config.toml")}
 
@@ -515,7 +517,10 @@ def readme(run_records, out, commit, heading=HEADING, results=RESULTS):
                            ("trials", "first test episodes (Table II)")):
             e = fin[f"{kind}-{engine}"]
             o = e["outcomes"]
-            rows.append(f"| {what}, {shown(engine)}{mark} | {e['episodes']} | **{pct(success(e))}** | {o['incomplete']} | {o['drop']} |")
+            h = f["halves"].get(f"{kind}-{engine}")
+            shipped = "" if h is None else pct(success(h))
+            rows.append(f"| {what}, {shown(engine)}{mark} | {e['episodes']} | **{pct(success(e))}** | {o['incomplete']} | "
+                        f"{o['drop']} | {shipped} |")
     best_line = (f"The snapshot best on the validation episodes is the final policy itself."
                  if f["best"] == int(env["EPOCHS"]) - 1 else
                  f"`best_on_validation.fmsr` is the snapshot after epoch {f['best']} (counted from 0), the best of the "
@@ -533,6 +538,12 @@ def readme(run_records, out, commit, heading=HEADING, results=RESULTS):
     note = env.get("BIN_NOTE", "").strip().strip('"')
     exporter = (f"the binary the run ended with (`{Path(env['BIN']).name}`" + (f": {note})" if note else ")")
                 if env.get("BIN") else "the run's own binary")
+    shipped_line = ("It is shipped at half precision (`fmsr export --precision half`, the actors as f16: about "
+                    "half the bytes), carrying its own evaluations, played again at that precision (`fmsr eval ... "
+                    "--record`; the table's last column, which `fmsr eval` repeats; `final/*-half.log` in the records "
+                    "says how many episodes end otherwise)."
+                    if any(v is not None for v in f["halves"].values()) else
+                    "Its evaluations are written into the file (`fmsr eval ... --record`).")
     text = f"""# Egg, six agents, {f['label']}: {lower_first(short_name(heading))}
 
 The long run of issues 37 and 53 (`scripts/long_runs.sh`): `{env.get('CONFIG', '?')}`, seed 0, trained on {shown(home)}, the paper's config
@@ -543,18 +554,17 @@ development VM (2 cores, no GPU), one core per run.{restart_line} Learning curve
 section "{short_name(heading)}".
 
 `policy.fmsr` is the policy after the last epoch (no selection), exported by {exporter} and
-evaluated with the build of `{commit}` (`--features mujoco`), its evaluations written into the file
-(`fmsr eval ... --record`). {best_line}
+evaluated with the build of `{commit}` (`--features mujoco`). {shipped_line} {best_line}
 
 ```sh
-{setup}cargo run --release{features} -- eval pretrained/{out.name}      # repeats the test evaluation below on {shown(home)}
+{setup}cargo run --release{features} -- eval pretrained/{out.name}      # repeats the shipped file's test evaluation below on {shown(home)}
 cargo run --release{features} -- render pretrained/{out.name}    # test episode 0 as a GIF, into render/ here
 ```
 
 Success is turned and held (within {fin[f'test-{home}']['threshold']} rad at the last step, never dropped), with its 95 % Wilson interval:
 
-| Episodes | Count | Success | Incomplete | Drops |
-|---|---|---|---|---|
+| Episodes | Count | Success | Incomplete | Drops | Success, the file shipped (f16) |
+|---|---|---|---|---|---|
 """ + "\n".join(rows) + "\n"
     (out / "README.md").write_text(text)
     print(f"wrote {out / 'README.md'}")

@@ -262,9 +262,18 @@ assert (e['set'], e['engine'], e['trained_on']) == want, (n, e['set'], e['engine
     [ ! -e "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/$f" ] || fail "$run: finish left pretrained/${run}_paper_stack/$f"
   done
   grep -q "| fixed test set, MuJoCo (trained on) |" "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/README.md" || fail "$run: the README does not lead with MuJoCo"
-  # The exported policy carries its evaluations: eval repeats the test one.
+  # The exported policy is shipped at half precision and carries its own
+  # evaluations at that precision: eval repeats the test one.
   "$repo/target/release/fmsr" eval "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack" > "$scratch/eval"
   grep -q "the same results as the evaluation the file carries" "$scratch/eval" || fail "$run: the policy does not carry its test evaluation"
+  grep -q "actors at half precision" "$scratch/eval" || fail "$run: the shipped policy is not at half precision"
+  for f in test-rapier validation-rapier test-mujoco validation-mujoco; do
+    python3 -c "import json,sys; e=json.load(open(sys.argv[1])); assert e.get('precision') == 'half', e.get('precision')" \
+      "$FMSR_LONG_RUNS_RECORDS/$run/final/$f-half.json" || fail "$run: final/$f-half.json is not the half file's"
+    python3 -c "import json,sys; e=json.load(open(sys.argv[1])); assert 'precision' not in e, e['precision']" \
+      "$FMSR_LONG_RUNS_RECORDS/$run/final/$f.json" || fail "$run: final/$f.json is not the policy as trained"
+  done
+  grep -q "Success, the file shipped (f16)" "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/README.md" || fail "$run: the README has no column for the file shipped"
 done
 # Twice at epoch 2: the restore above, then the one after the cut-off finish.
 grep -q "Restarted from its rescue point at epochs 2, 2 " "$FMSR_LONG_RUNS_PRETRAINED/egg_dense_fmsr_is_paper_stack/README.md" || fail "the README does not say where the run was restored"
