@@ -5,9 +5,13 @@
 //! ran the command. Every policy file in `pretrained/` opens with this build
 //! and carries its evaluation on the fixed test set, and every `report` of
 //! `README.md` and `pretrained/README.md` names only what `fmsr report` reads.
+//! Every shipped policy is at half precision (the tree's room) and carries
+//! evaluations measured at that precision, which `fmsr eval` repeats.
 
 use std::path::PathBuf;
 
+use fmsr::artefacts::PolicyFile;
+use fmsr::nn::PolicyPrecision;
 use fmsr::report::RunRecord;
 
 /// The paths a shell pattern of the README matches, sorted (as a shell's glob).
@@ -30,6 +34,18 @@ fn every_shipped_policy_opens_and_carries_its_test_evaluation() {
         let record = RunRecord::open(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
         assert!(record.eval.is_some(), "{} carries no evaluation on the fixed test set", file.display());
         assert!(!record.metrics.is_empty(), "{} carries no learning curve", file.display());
+        let policy = PolicyFile::read(&file).unwrap();
+        assert_eq!(policy.precision(), PolicyPrecision::Half, "{} is not shipped at half precision", file.display());
+        for eval in &policy.evals {
+            assert_eq!(
+                eval.precision,
+                PolicyPrecision::Half,
+                "{} carries an evaluation ({} {:?}) of its actors at another precision",
+                file.display(),
+                eval.engine,
+                eval.set
+            );
+        }
     }
 }
 

@@ -86,6 +86,8 @@ pub mod seeding;
 pub mod shadow;
 pub mod sharing;
 pub mod spec;
+#[cfg(feature = "testing")]
+pub mod testing;
 pub mod trainer;
 
 pub use algorithm::{Algorithm, RewardModel};

@@ -4,6 +4,7 @@
 //! owner, the trainer (`trainer.gamma`), and is passed to the learners.
 
 use burn::config::Config;
+use burn::tensor::Tensor;
 use serde::{Deserialize, Serialize};
 
 use crate::error::NnError;
@@ -117,6 +118,47 @@ pub enum CriticLoss {
     Squared,
     /// The Huber loss with threshold 1.
     Huber,
+}
+
+/// A critic loss on the TD error: maps `d = Q - y` (`[agents, rows, 1]`, one
+/// critic of one group) to the per-element loss, which the learner averages
+/// over the rows and sums over the critics. [`CriticLoss`] is one; a rule of
+/// a user's crate passes its own (any `Fn(Tensor<3>) -> Tensor<3> + Sync`) to
+/// [`crate::Learner::critic_step_with`].
+///
+/// ```
+/// use fmsr_nn::burn::tensor::Tensor;
+/// use fmsr_nn::{CriticLoss, TdLoss};
+/// let d = Tensor::<3>::from_floats([[[-3.0], [0.5]]], &Default::default());
+/// let l: Vec<f32> = CriticLoss::Huber.loss(d.clone()).into_data().to_vec().unwrap();
+/// assert_eq!(l, [2.5, 0.125]);
+/// // A loss of one's own: the absolute error.
+/// let abs = |d: Tensor<3>| d.abs();
+/// let l: Vec<f32> = abs.loss(d).into_data().to_vec().unwrap();
+/// assert_eq!(l, [3.0, 0.5]);
+/// ```
+pub trait TdLoss: Sync {
+    /// The per-element loss of the TD errors `d`, of `d`'s shape.
+    fn loss(&self, d: Tensor<3>) -> Tensor<3>;
+}
+
+impl TdLoss for CriticLoss {
+    fn loss(&self, d: Tensor<3>) -> Tensor<3> {
+        match self {
+            Self::Squared => d.square(),
+            Self::Huber => {
+                let abs = d.clone().abs();
+                let linear = abs.clone().sub_scalar(0.5);
+                linear.mask_where(abs.lower_equal_elem(1.0), d.square().mul_scalar(0.5))
+            }
+        }
+    }
+}
+
+impl<F: Fn(Tensor<3>) -> Tensor<3> + Sync> TdLoss for F {
+    fn loss(&self, d: Tensor<3>) -> Tensor<3> {
+        self(d)
+    }
 }
 
 /// The rows from which the input normalisers' running mean and variance are

@@ -101,7 +101,7 @@ pub use burn;
 pub use burn::tensor::Device;
 pub use config::{
     CriticLoss, CriticTying, CriticView, MaddpgConfig, MasacConfig, Matd3Config, NetworkConfig, NormalizerStats,
-    Stacking, TargetClip, Teammates,
+    Stacking, TargetClip, TdLoss, Teammates,
 };
 pub use device::{Adapter, DeviceSpec};
 /// The former name of [`CriticTying`].

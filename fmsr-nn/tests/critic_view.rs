@@ -7,6 +7,7 @@
 //! It also guards that the learner, not the rule, counts the steps.
 
 use crate::common;
+use fmsr_core::testing::L1Rewards;
 
 use fmsr_core::algorithm::Algorithm;
 use fmsr_core::policy::{ActMode, PolicyOutput};
@@ -74,7 +75,7 @@ fn run<const V: u8>(stacking: Stacking) -> Trace {
     for seed in 0..2 {
         l.store(&common::episode(&layout, seed)).unwrap();
     }
-    let rewards = common::L1Rewards(3);
+    let rewards = L1Rewards::new(3);
     let mut losses = Vec::new();
     for _ in 0..2 {
         let s = l.update(&rewards).unwrap();

@@ -16,6 +16,7 @@
 //! for bit; MADDPG's cases, which draw no normal, did not change).
 
 use crate::common;
+use fmsr_core::testing::L1Rewards;
 
 use common::AlgorithmKind;
 
@@ -50,7 +51,7 @@ fn learner(
 
 fn run(kind: AlgorithmKind, sharing: Option<Sharing>, stacking: Stacking) -> Record {
     let (layout, mut l) = learner(kind, sharing, stacking);
-    let rewards = common::L1Rewards(3);
+    let rewards = L1Rewards::new(3);
     for seed in 0..2 {
         l.store(&common::episode(&layout, seed)).unwrap();
     }

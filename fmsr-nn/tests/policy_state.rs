@@ -10,6 +10,7 @@
 //! without drifting.
 
 use crate::common;
+use fmsr_core::testing::L1Rewards;
 
 use common::AlgorithmKind;
 
@@ -24,7 +25,7 @@ fn net(seed: u64, stacking: Stacking) -> NetworkConfig {
 
 /// A learner of `kind` after two cycles of learning.
 fn trained(kind: AlgorithmKind, layout: &ObservationLayout, stacking: Stacking) -> AnyLearner {
-    let rewards = common::L1Rewards(layout.spec().agents.len());
+    let rewards = L1Rewards::new(layout.spec().agents.len());
     let mut a = common::learner(kind, layout, net(21, stacking));
     for e in 0..2 {
         a.store(&common::episode(layout, e)).unwrap();

@@ -6,6 +6,7 @@
 //! corrupted bytes are `NnError`s that leave the learner unchanged.
 
 use crate::common;
+use fmsr_core::testing::L1Rewards;
 
 use common::AlgorithmKind;
 
@@ -18,7 +19,7 @@ fn net(seed: u64) -> NetworkConfig {
 #[test]
 fn round_trip_is_bit_exact_for_every_algorithm() {
     let layout = common::layout(&[2, 3, 1], 7, 3);
-    let rewards = common::L1Rewards(3);
+    let rewards = L1Rewards::new(3);
     for (kind, stacking) in AlgorithmKind::ALL.into_iter().flat_map(|k| [(k, Stacking::PerAgent), (k, Stacking::All)]) {
         let net = |seed| net(seed).with_stacking(stacking);
         let mut a = common::learner(kind, &layout, net(21));

@@ -6,6 +6,7 @@
 //! (`PerAgent`) keeps a trunk per agent.
 
 use crate::common;
+use fmsr_core::testing::L1Rewards;
 
 use common::AlgorithmKind;
 
@@ -68,7 +69,7 @@ fn per_agent_critics_keep_their_own_trunks() {
 #[test]
 fn shared_critics_save_and_load_and_refuse_the_other_design() {
     let layout = common::layout(&[2, 3, 1], 7, 3);
-    let rewards = common::L1Rewards(3);
+    let rewards = L1Rewards::new(3);
     for critic in [CriticTying::SharedTrunk, CriticTying::Shared] {
         for kind in AlgorithmKind::ALL {
             let mut a = common::learner(kind, &layout, net(critic, 21));

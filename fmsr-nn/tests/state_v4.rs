@@ -18,6 +18,7 @@
 //! itself gave the earlier files bit for bit).
 
 use crate::common;
+use fmsr_core::testing::L1Rewards;
 
 use common::AlgorithmKind;
 
@@ -63,7 +64,7 @@ fn net(seed: u64) -> NetworkConfig {
 fn next(l: &mut AnyLearner, layout: &fmsr_core::agent::ObservationLayout) -> Next {
     let x = common::inputs(layout, 3, 11);
     let greedy = l.act(&x, 3, ActMode::Evaluate).unwrap().actions;
-    let stats = l.update(&common::L1Rewards(3)).unwrap();
+    let stats = l.update(&L1Rewards::new(3)).unwrap();
     let exploring = l.act(&x, 3, ActMode::Explore).unwrap().actions;
     let temperatures = l.downcast_ref::<Masac>().map(Masac::temperatures).unwrap_or_default();
     Next { greedy, critic_loss: stats.critic_loss, actor_loss: stats.actor_loss, exploring, temperatures }
@@ -80,7 +81,7 @@ fn states_of_format_4_load_and_continue_as_saved() {
             let mut l = common::learner(kind, &layout, net(21));
             for e in 0..3 {
                 l.store(&common::episode(&layout, e)).unwrap();
-                l.update(&common::L1Rewards(3)).unwrap();
+                l.update(&L1Rewards::new(3)).unwrap();
             }
             std::fs::create_dir_all(dir()).unwrap();
             std::fs::write(&state, l.save_state(true).unwrap()).unwrap();

@@ -5,6 +5,7 @@
 //! critics are frozen (learning rate 0) so only the actor loss's input differs.
 
 use crate::common;
+use fmsr_core::testing::L1Rewards;
 
 use common::AlgorithmKind;
 
@@ -50,7 +51,7 @@ fn cycle_actor_losses(kind: AlgorithmKind, teammates: Teammates, actions_seed: u
     let mut episode = common::episode(&layout, 0);
     episode.actions = common::episode(&layout, actions_seed).actions;
     l.store(&episode).unwrap();
-    let stats = l.update(&common::L1Rewards(2)).unwrap();
+    let stats = l.update(&L1Rewards::new(2)).unwrap();
     assert!(stats.updates > 0 && stats.actor_loss.iter().all(|v| v.is_finite()), "{kind:?}: {stats:?}");
     stats.actor_loss.iter().map(|v| v.to_bits()).collect()
 }

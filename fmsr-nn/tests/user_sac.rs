@@ -9,6 +9,7 @@
 //! temperature list that is not one per agent.
 
 use crate::common;
+use fmsr_core::testing::L1Rewards;
 
 use fmsr_core::agent::ObservationLayout;
 use fmsr_core::algorithm::Algorithm;
@@ -78,7 +79,7 @@ fn trace<R: UpdateRule>(layout: &ObservationLayout, mut l: OffPolicy<R>) -> Trac
     for seed in 0..2 {
         l.store(&common::episode(layout, seed)).unwrap();
     }
-    let rewards = common::L1Rewards(3);
+    let rewards = L1Rewards::new(3);
     let mut losses = Vec::new();
     for _ in 0..2 {
         let s = l.update(&rewards).unwrap();
@@ -133,7 +134,7 @@ fn temperatures_that_are_not_one_per_agent_are_refused() {
     };
     let mut l = OffPolicy::with_rule(p, rule).unwrap();
     l.store(&common::episode(&layout, 0)).unwrap();
-    let err = l.update(&common::L1Rewards(3)).unwrap_err();
+    let err = l.update(&L1Rewards::new(3)).unwrap_err();
     assert!(matches!(&err, NnError::Dimension { what, expected: 3, found: 2 } if what == "temperatures"), "{err}");
 }
 
@@ -172,6 +173,6 @@ fn actors_without_two_head_blocks_are_refused_not_misread() {
     let err = l.act(&common::inputs(&layout, 2, 1), 2, ActMode::Evaluate).unwrap_err();
     assert!(is_heads(&err), "{err}");
     l.store(&common::episode(&layout, 0)).unwrap();
-    let err = l.update(&common::L1Rewards(3)).unwrap_err();
+    let err = l.update(&L1Rewards::new(3)).unwrap_err();
     assert!(is_heads(&err), "{err}");
 }

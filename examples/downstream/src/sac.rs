@@ -1,13 +1,14 @@
 //! A user's algorithm registered by name: SAC with a fixed entropy
-//! temperature (no temperature tuning, unlike fmsr's MASAC), written on
-//! fmsr-nn's public learner view in this crate, then trained, resumed,
-//! exported and evaluated by fmsr's own command from a config that says
-//! `algorithm = "fixed_sac"`.
+//! temperature (no temperature tuning, unlike fmsr's MASAC) and a Huber
+//! critic loss of its own threshold, written on fmsr-nn's public learner view
+//! in this crate, then trained, resumed, exported and evaluated by fmsr's own
+//! command from a config that says `algorithm = "fixed_sac"`.
 
 use std::path::Path;
 
 use anyhow::{Result, bail};
 use fmsr_core::policy::{ActMode, PolicyOutput};
+use fmsr_nn::burn::tensor::Tensor;
 use fmsr_nn::{BatchTensors, ConfiguredRule, Learner, NnError, SquashedGaussian, StepLosses, Teammates, UpdateRule};
 use serde::{Deserialize, Serialize};
 
@@ -21,12 +22,22 @@ pub struct FixedSacConfig {
     pub polyak: f64,
     /// Probability of a uniformly random action while exploring.
     pub random_eps: f64,
+    /// The critics' Huber threshold: squared TD errors below it, linear beyond.
+    pub huber_delta: f64,
 }
 
 impl Default for FixedSacConfig {
     fn default() -> Self {
-        Self { temperature: 0.05, polyak: 0.95, random_eps: 0.3 }
+        Self { temperature: 0.05, polyak: 0.95, random_eps: 0.3, huber_delta: 2.0 }
     }
+}
+
+/// The Huber loss of threshold `delta` on the TD errors `d`, written with
+/// burn's tensor operations: `d^2 / 2` where `|d| <= delta`, `delta (|d| - delta / 2)` beyond.
+fn huber(d: Tensor<3>, delta: f32) -> Tensor<3> {
+    let abs = d.clone().abs();
+    let linear = abs.clone().sub_scalar(delta / 2.0).mul_scalar(delta);
+    linear.mask_where(abs.lower_equal_elem(delta), d.square().mul_scalar(0.5))
 }
 
 /// The rule: its settings are all it holds.
@@ -45,10 +56,14 @@ impl UpdateRule for FixedSac {
 
     fn validate(&self) -> Result<(), NnError> {
         let c = &self.config;
-        if !(c.temperature >= 0.0 && (0.0..=1.0).contains(&c.polyak) && (0.0..=1.0).contains(&c.random_eps)) {
+        if !(c.temperature >= 0.0
+            && (0.0..=1.0).contains(&c.polyak)
+            && (0.0..=1.0).contains(&c.random_eps)
+            && c.huber_delta > 0.0)
+        {
             return Err(NnError::InvalidConfig {
                 key: "fixed_sac",
-                reason: "temperature must be >= 0, polyak and random_eps in [0, 1]".into(),
+                reason: "temperature must be >= 0, polyak and random_eps in [0, 1], huber_delta > 0".into(),
             });
         }
         Ok(())
@@ -61,7 +76,8 @@ impl UpdateRule for FixedSac {
     fn step(&mut self, l: &mut Learner, b: &BatchTensors) -> Result<StepLosses, NnError> {
         let alpha = vec![self.config.temperature as f32; l.num_agents()];
         let (next, soft) = l.sampled_next_actions(b, DIST, &alpha)?;
-        let critic = l.soft_critic_step(b, next, soft)?;
+        let delta = self.config.huber_delta as f32;
+        let critic = l.critic_step_with(b, next, Some(soft), &|d: Tensor<3>| huber(d, delta))?;
         let (actor, _) = l.squashed_gaussian_actor_step(b, DIST, &alpha, Teammates::Replay)?;
         Ok(StepLosses { critic, actor: Some(actor) })
     }
@@ -121,6 +137,11 @@ temperature = 0.1
 /// # Errors
 /// Registration, the command's errors, or a run that does not hold what it should.
 pub fn run_by_name(dir: &Path) -> Result<()> {
+    let d = Tensor::<3>::from_floats([[[-3.0], [0.5]]], &Default::default());
+    let l: Vec<f32> = huber(d, 2.0).into_data().to_vec().map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    if l != [4.0, 0.125] {
+        bail!("the Huber loss of -3 and 0.5 at threshold 2 is {l:?}, not [4, 0.125]");
+    }
     fmsr::algorithms::register::<FixedSac>()?;
     let (config, run, policy) = (dir.join("fixed_sac.toml"), dir.join("run"), dir.join("fixed_sac.fmsr"));
     std::fs::write(&config, CONFIG)?;
@@ -132,7 +153,11 @@ pub fn run_by_name(dir: &Path) -> Result<()> {
     fmsr(&["eval", &arg(&policy)])?;
     let written = std::fs::read_to_string(run.join("config.toml"))?;
     let epochs = std::fs::read_to_string(run.join("metrics.csv"))?.lines().count() - 1;
-    if !written.contains("algorithm = \"fixed_sac\"") || !written.contains("[fixed_sac]") || epochs != 2 {
+    if !written.contains("algorithm = \"fixed_sac\"")
+        || !written.contains("[fixed_sac]")
+        || !written.contains("huber_delta = 2.0")
+        || epochs != 2
+    {
         bail!("the run's config.toml or metrics.csv do not hold the fixed_sac run of 2 epochs");
     }
     println!("fmsr's command trained, resumed, exported and evaluated this crate's fixed_sac by name");

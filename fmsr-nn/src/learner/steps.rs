@@ -8,7 +8,7 @@ use burn::tensor::{Device, Tensor};
 use fmsr_core::sharing::{NetworkKind, SharedParameters};
 use fmsr_graph::MixingMatrix;
 
-use crate::config::CriticLoss;
+use crate::config::TdLoss;
 use crate::error::NnError;
 use crate::group::Group;
 use crate::mixing::{all_reduce, mix_gradients, mix_stacks};
@@ -69,7 +69,27 @@ impl Learner {
     /// # Errors
     /// Backend errors.
     pub fn critic_step(&mut self, b: &BatchTensors, next_actions: Tensor<2>) -> Result<Vec<f32>, NnError> {
-        self.critic_step_soft(b, next_actions, None)
+        let loss = self.net.critic_loss;
+        self.critic_step_soft(b, next_actions, None, &loss)
+    }
+
+    /// [`Learner::critic_step`] (or, with `soft`, [`Learner::soft_critic_step`])
+    /// with the rule's own loss on the TD error instead of `networks.critic_loss`:
+    ///
+    /// ```text
+    /// L_i = sum_c mean loss(Q_{i,c}(x, g, a) - y_i)
+    /// ```
+    ///
+    /// # Errors
+    /// Backend errors.
+    pub fn critic_step_with(
+        &mut self,
+        b: &BatchTensors,
+        next_actions: Tensor<2>,
+        soft: Option<crate::SoftTerm>,
+        loss: &dyn TdLoss,
+    ) -> Result<Vec<f32>, NnError> {
+        self.critic_step_soft(b, next_actions, soft.map(|s| s.groups), loss)
     }
 
     /// [`Learner::critic_step`] with an optional soft term (eq. 7)
@@ -87,13 +107,13 @@ impl Learner {
         b: &BatchTensors,
         next_actions: Tensor<2>,
         soft: Option<Vec<Tensor<3>>>,
+        critic_loss: &dyn TdLoss,
     ) -> Result<Vec<f32>, NnError> {
         let next_global = Tensor::cat(vec![b.og_next.clone(), next_actions.clone()], 1).unsqueeze_dim::<3>(0);
         let next_joint = next_actions.unsqueeze_dim::<3>(0);
         let joint = b.actions.clone().unsqueeze_dim::<3>(0);
         let global = Tensor::cat(vec![b.og.clone(), b.actions.clone()], 1).unsqueeze_dim::<3>(0);
         let gamma = self.gamma as f32;
-        let critic_loss = self.net.critic_loss;
         // Each group's batch-mean Q of its first critic, for the epoch's statistics.
         let q_means = std::sync::Mutex::new(Vec::with_capacity(self.groups.len()));
         let losses = self.step_groups(NetworkKind::Critics, |g, group| {
@@ -120,16 +140,7 @@ impl Learner {
                     let mean: Tensor<1> = Tensor::from_inner(mean);
                     q_means.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push((g, mean));
                 }
-                let d = q - y.clone();
-                let l = match critic_loss {
-                    CriticLoss::Squared => d.square(),
-                    CriticLoss::Huber => {
-                        let abs = d.clone().abs();
-                        let linear = abs.clone().sub_scalar(0.5);
-                        linear.mask_where(abs.lower_equal_elem(1.0), d.square().mul_scalar(0.5))
-                    }
-                }
-                .mean_dim(1);
+                let l = critic_loss.loss(q - y.clone()).mean_dim(1);
                 loss = Some(match loss {
                     Some(acc) => acc + l,
                     None => l,

@@ -45,7 +45,7 @@ pub struct SquashedGaussian {
 #[derive(Debug, Clone)]
 pub struct SoftTerm {
     /// Per group, `[A_g, n, 1]`.
-    groups: Vec<Tensor<3>>,
+    pub(super) groups: Vec<Tensor<3>>,
 }
 
 /// A reparameterised sample `a = tanh(m + exp(s) eps)` of every agent of a
@@ -145,7 +145,8 @@ impl Learner {
         next_actions: Tensor<2>,
         soft: SoftTerm,
     ) -> Result<Vec<f32>, NnError> {
-        self.critic_step_soft(b, next_actions, Some(soft.groups))
+        let loss = self.net.critic_loss;
+        self.critic_step_soft(b, next_actions, Some(soft.groups), &loss)
     }
 
     /// One optimiser step of every agent's actor on the entropy-regularised loss

@@ -5,7 +5,6 @@
 use fmsr_core::agent::{Batch, ObservationLayout};
 use fmsr_core::replay::Episode;
 use fmsr_core::spec::{AgentSpec, EnvSpec};
-use fmsr_core::spec::{JointAction, Observation, StepInfo};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -141,42 +140,8 @@ pub fn bits(v: &[f32]) -> Vec<u32> {
     v.iter().map(|x| x.to_bits()).collect()
 }
 
-/// A random episode of `layout`'s spec (observations, actions, no features).
+/// A random episode of `layout`'s spec (observations, actions, no features):
+/// [`fmsr_core::testing::random_episode`].
 pub fn episode(layout: &ObservationLayout, seed: u64) -> Episode {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let spec = layout.spec();
-    let mut v = |len: usize| (0..len).map(|_| rng.random_range(-1.0f32..1.0)).collect::<Vec<f32>>();
-    let goal = v(spec.goal_dim);
-    let mut ep = Episode::with_capacity(spec.episode_len);
-    for t in 0..=spec.episode_len {
-        ep.observations.push(Observation {
-            global: v(spec.obs_dim),
-            locals: spec.agents.iter().map(|a| v(a.local_obs_dim)).collect(),
-            achieved_goal: v(spec.goal_dim),
-            desired_goal: goal.clone(),
-        });
-        if t < spec.episode_len {
-            ep.actions.push(JointAction(v(spec.action_dim)));
-            ep.infos.push(StepInfo { features: vec![0.0; spec.features.len()], ..StepInfo::default() });
-        }
-    }
-    ep
-}
-
-/// Rewards `-|achieved - desired|_1` for every agent, bounds `[-10, 0]`.
-#[derive(Debug)]
-pub struct L1Rewards(pub usize);
-
-impl fmsr_core::RewardModel for L1Rewards {
-    fn goal_reward(&self, achieved: &[f32], desired: &[f32]) -> f32 {
-        -achieved.iter().zip(desired).map(|(a, d)| (a - d).abs()).sum::<f32>()
-    }
-
-    fn agent_rewards(&self, task: f32, _phi: &[f32], out: &mut [f32]) {
-        out.iter_mut().for_each(|o| *o = task);
-    }
-
-    fn reward_bounds(&self) -> Vec<(f64, f64)> {
-        vec![(-10.0, 0.0); self.0]
-    }
+    fmsr_core::testing::random_episode(layout.spec(), seed)
 }
