@@ -237,7 +237,14 @@ fn bad_policy_files_are_errors_naming_what_is_wrong() {
     let out = fmsr(&["eval", empty.to_str().unwrap()]);
     assert!(!out.status.success() && text(&out).contains("holds neither a run"), "{}", text(&out));
     let out = fmsr(&["export", empty.to_str().unwrap()]);
+    assert!(!out.status.success() && text(&out).contains("holds neither a run"), "{}", text(&out));
+    // A run that has not trained yet (its config, no checkpoint).
+    std::fs::copy(run.join("config.toml"), empty.join("config.toml")).unwrap();
+    let out = fmsr(&["export", empty.to_str().unwrap()]);
     assert!(!out.status.success() && text(&out).contains("no checkpoint.bin"), "{}", text(&out));
+    // A policy file is written again only to a file named with --out.
+    let out = fmsr(&["export", file.to_str().unwrap(), "--precision", "half"]);
+    assert!(!out.status.success() && text(&out).contains("--out"), "{}", text(&out));
 }
 
 // Guards the `graph.actor_observation` switch (issue 31): `"global"` actors
