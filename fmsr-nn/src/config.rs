@@ -130,11 +130,11 @@ pub enum CriticLoss {
 /// use fmsr_nn::burn::tensor::Tensor;
 /// use fmsr_nn::{CriticLoss, TdLoss};
 /// let d = Tensor::<3>::from_floats([[[-3.0], [0.5]]], &Default::default());
-/// let l: Vec<f32> = CriticLoss::Huber.loss(d.clone()).into_data().to_vec().unwrap();
+/// let l: Vec<f32> = CriticLoss::Huber.loss(d.clone()).into_data().try_to_vec::<f32>().unwrap();
 /// assert_eq!(l, [2.5, 0.125]);
 /// // A loss of one's own: the absolute error.
 /// let abs = |d: Tensor<3>| d.abs();
-/// let l: Vec<f32> = abs.loss(d).into_data().to_vec().unwrap();
+/// let l: Vec<f32> = abs.loss(d).into_data().try_to_vec::<f32>().unwrap();
 /// assert_eq!(l, [3.0, 0.5]);
 /// ```
 pub trait TdLoss: Sync {

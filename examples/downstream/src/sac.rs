@@ -138,7 +138,7 @@ temperature = 0.1
 /// Registration, the command's errors, or a run that does not hold what it should.
 pub fn run_by_name(dir: &Path) -> Result<()> {
     let d = Tensor::<3>::from_floats([[[-3.0], [0.5]]], &Default::default());
-    let l: Vec<f32> = huber(d, 2.0).into_data().to_vec().map_err(|e| anyhow::anyhow!("{e:?}"))?;
+    let l: Vec<f32> = huber(d, 2.0).into_data().try_to_vec::<f32>().map_err(|e| anyhow::anyhow!("{e:?}"))?;
     if l != [4.0, 0.125] {
         bail!("the Huber loss of -3 and 0.5 at threshold 2 is {l:?}, not [4, 0.125]");
     }
