@@ -21,16 +21,12 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use fmsr::experiment::ExperimentConfig;
 use fmsr::prelude::*;
+
+mod common;
+use common::config_path;
 use fmsr_core::spec::JointAction;
 
 const ENVS: usize = 8;
-
-fn config_path() -> std::path::PathBuf {
-    match std::env::var_os("FMSR_EPOCH_CONFIG") {
-        Some(path) => std::path::PathBuf::from(path),
-        None => std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/block_dense_fmsr_is.toml"),
-    }
-}
 
 /// Env steps/s of `episodes` exploring rollouts with `threads` stepping
 /// threads and `learner_threads` learner threads (one warm-up round first).

@@ -25,6 +25,9 @@ use anyhow::{Context, Result};
 use fmsr::experiment::ExperimentConfig;
 use fmsr::prelude::*;
 
+mod common;
+use common::config_path;
+
 const PAPER_CYCLES: usize = 25;
 
 /// Seconds of `cycles` cycles of the paper config with `envs` envs, `threads`
@@ -49,14 +52,6 @@ fn time_cycles(cycles: usize, envs: usize, threads: usize, learner_threads: usiz
     let start = Instant::now();
     let stats = trainer.run_epoch()?;
     Ok((start.elapsed().as_secs_f64(), stats))
-}
-
-/// The experiment timed: `FMSR_EPOCH_CONFIG`, else the paper's block config.
-fn config_path() -> std::path::PathBuf {
-    match std::env::var_os("FMSR_EPOCH_CONFIG") {
-        Some(path) => std::path::PathBuf::from(path),
-        None => std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/block_dense_fmsr_is.toml"),
-    }
 }
 
 fn main() -> Result<()> {

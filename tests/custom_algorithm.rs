@@ -14,6 +14,7 @@ mod example;
 use example::{Iddpg, IddpgConfig, IddpgRule};
 use fmsr::experiment::ExperimentConfig;
 use fmsr::prelude::*;
+use fmsr_core::testing::L1Rewards;
 
 /// The success IDDPG must reach on 100 held-out TeamReach episodes after 12
 /// epochs with sharing on (a random policy: about 0.00).
@@ -37,8 +38,8 @@ fn iddpg_as_a_rule_learns_team_reach_and_resumes_exactly() {
     let mut copy = fresh();
     copy.load_state(&state).unwrap();
     let original = trainer.algorithm_mut();
-    let a = original.update(&Rewards).unwrap();
-    let b = copy.update(&Rewards).unwrap();
+    let a = original.update(&L1Rewards::new(3)).unwrap();
+    let b = copy.update(&L1Rewards::new(3)).unwrap();
     assert_eq!(a.critic_loss, b.critic_loss, "a restored IDDPG steps as the original");
     assert_eq!(a.actor_loss, b.actor_loss);
     assert_eq!(original.params(1).unwrap(), copy.params(1).unwrap());
@@ -50,23 +51,6 @@ fn iddpg_as_a_rule_learns_team_reach_and_resumes_exactly() {
     let act = |l: &mut Iddpg| l.act(&inputs, 1, ActMode::Evaluate).unwrap().actions;
     let acted = act(trainer.algorithm_mut());
     assert_eq!(acted, act(&mut other));
-}
-
-/// Rewards `-|achieved - desired|_1` for every agent, bounds `[-10, 0]`.
-struct Rewards;
-
-impl RewardModel for Rewards {
-    fn goal_reward(&self, achieved: &[f32], desired: &[f32]) -> f32 {
-        -achieved.iter().zip(desired).map(|(a, d)| (a - d).abs()).sum::<f32>()
-    }
-
-    fn agent_rewards(&self, task: f32, _phi: &[f32], out: &mut [f32]) {
-        out.iter_mut().for_each(|o| *o = task);
-    }
-
-    fn reward_bounds(&self) -> Vec<(f64, f64)> {
-        vec![(-10.0, 0.0); 3]
-    }
 }
 
 #[test]

@@ -153,6 +153,9 @@ impl PolicyFile {
     /// The errors of [`fmsr_nn::policy_at_precision`]: a corrupt policy state,
     /// or a parameter beyond `f16`'s range.
     pub fn at_precision(&self, precision: PolicyPrecision) -> Result<Self, ExperimentError> {
+        if self.precision() == precision {
+            return Ok(self.clone());
+        }
         Ok(Self { policy: fmsr_nn::policy_at_precision(&self.policy, precision)?, ..self.clone() })
     }
 

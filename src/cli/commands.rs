@@ -293,15 +293,11 @@ pub(super) fn eval(args: &EvalArgs) -> Result<()> {
         return refuse("--carried", format!("{} carries no evaluation", path.display()));
     }
     for carried in &file.evals {
-        let engine = match carried.engine.as_str() {
-            "rapier" => Engine::Rapier,
-            "mujoco" => Engine::Mujoco,
-            other => {
-                return refuse(
-                    "--carried",
-                    format!("{} carries an evaluation on an unknown engine {other:?}", path.display()),
-                );
-            }
+        let Some(engine) = Engine::ALL.into_iter().find(|e| e.key() == carried.engine) else {
+            return refuse(
+                "--carried",
+                format!("{} carries an evaluation on an unknown engine {:?}", path.display(), carried.engine),
+            );
         };
         let one = EvalChoice {
             episodes: Some(carried.episodes),

@@ -72,7 +72,7 @@ impl RunRecord {
         let metrics = run.load_metrics()?;
         let eval = read_eval(&run.eval_json())?;
         let validation = read_eval(&run.eval_json_for(config.engine, config.engine, EpisodeSet::Validation))?;
-        let cross_evals: Vec<EvalReport> = [Engine::Rapier, Engine::Mujoco]
+        let cross_evals: Vec<EvalReport> = Engine::ALL
             .into_iter()
             .filter(|&e| e != config.engine)
             .map(|e| read_eval(&run.eval_json_on(e, config.engine)))

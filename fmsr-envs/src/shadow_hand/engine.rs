@@ -28,6 +28,9 @@ pub enum Engine {
 }
 
 impl Engine {
+    /// Every engine, rapier first.
+    pub const ALL: [Engine; 2] = [Engine::Rapier, Engine::Mujoco];
+
     /// The engine's name in configs and file names.
     ///
     /// ```

@@ -58,10 +58,8 @@ impl Learner {
     /// L_i = sum_c mean l(Q_{i,c}(x, g, a) - y_i)
     /// ```
     ///
-    /// with `l` the squared error, or the Huber loss (`networks.critic_loss`,
-    /// [`crate::CriticLoss`]).
-    ///
-    /// where `a'` is `next_actions` (`[rows, joint_width]`, agent-major, as
+    /// with `l` the loss of `networks.critic_loss` ([`crate::CriticLoss`]:
+    /// squared, or Huber), where `a'` is `next_actions` (`[rows, joint_width]`, agent-major, as
     /// [`Learner::target_actions`] gives) and each critic sees its rule's
     /// [`crate::CriticView`] of these. Worker averaging and information
     /// sharing of the critics happen here. Returns each agent's loss.
