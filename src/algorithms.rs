@@ -36,8 +36,9 @@ use serde::Deserialize;
 use crate::error::ExperimentError;
 
 /// Keys of an experiment that no algorithm may take as its name.
-const RESERVED: [&str; 13] = [
+const RESERVED: [&str; 14] = [
     "name",
+    "task",
     "method",
     "stack",
     "algorithm",
@@ -145,14 +146,8 @@ static REGISTRY: LazyLock<RwLock<Registry>> = LazyLock::new(|| {
 pub fn register<R: ConfiguredRule>() -> Result<(), ExperimentError> {
     let name = R::NAME;
     let refuse = |reason: String| Err(ExperimentError::Register { name: name.into(), reason });
-    let mut chars = name.chars();
-    if !chars.next().is_some_and(|c| c.is_ascii_lowercase())
-        || !chars.all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
-    {
-        return refuse("a name is a lowercase key: a-z, 0-9 and _, starting with a letter".into());
-    }
-    if RESERVED.contains(&name) {
-        return refuse(format!("`{name}` is an experiment's own key"));
+    if let Err(reason) = check_key(name) {
+        return refuse(reason);
     }
     let mut registry = REGISTRY.write().unwrap_or_else(PoisonError::into_inner);
     match registry.get(name) {
@@ -163,6 +158,22 @@ pub fn register<R: ConfiguredRule>() -> Result<(), ExperimentError> {
             Ok(())
         }
     }
+}
+
+/// Whether `name` may name a section of an experiment: a lowercase key
+/// (`a-z`, `0-9`, `_`, starting with a letter) that is none of an
+/// experiment's own keys; `Err` says why not.
+pub(crate) fn check_key(name: &str) -> Result<(), String> {
+    let mut chars = name.chars();
+    if !chars.next().is_some_and(|c| c.is_ascii_lowercase())
+        || !chars.all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+    {
+        return Err("a name is a lowercase key: a-z, 0-9 and _, starting with a letter".into());
+    }
+    if RESERVED.contains(&name) {
+        return Err(format!("`{name}` is an experiment's own key"));
+    }
+    Ok(())
 }
 
 /// The registered algorithms' names, sorted.

@@ -9,8 +9,44 @@ use fmsr_nn::{AnyLearner, LearnerParts};
 
 use crate::error::ExperimentError;
 use crate::experiment::{ExperimentConfig, parse_device};
+use crate::tasks::{self, Task};
 
 impl ExperimentConfig {
+    /// `n` environments of the registered task the config names
+    /// ([`crate::tasks`]), with its settings.
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] for key `task` when it names the Shadow
+    /// Hand (built from [`ExperimentConfig::env_config`] on an engine) or a
+    /// task this process has not registered; the task's own errors.
+    pub fn task_envs(&self, n: usize) -> Result<Vec<AnyEnv>, ExperimentError> {
+        let Some(settings) = self.task_settings() else {
+            return Err(ExperimentError::Config {
+                key: "task".into(),
+                reason: "the Shadow Hand is built from `env` on an engine (ExperimentConfig::env_config)".into(),
+            });
+        };
+        let entry = tasks::find(&self.task)?;
+        (0..n).map(|_| entry.env(settings)).collect()
+    }
+
+    /// Task `T`'s settings in this config (its section, every setting
+    /// written out).
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] naming the section when the config's task
+    /// is not `T` or its settings are not `T`'s.
+    pub fn task_config<T: Task>(&self) -> Result<T::Config, ExperimentError> {
+        let bad = |reason: String| ExperimentError::Config { key: "task".into(), reason };
+        match self.task_settings() {
+            Some(settings) if self.task == T::NAME => {
+                serde::Deserialize::deserialize(toml::Value::Table(settings.clone()))
+                    .map_err(|e: toml::de::Error| bad(e.to_string()))
+            }
+            _ => Err(bad(format!("the experiment's task is `{}`, not `{}`", self.task, T::NAME))),
+        }
+    }
+
     /// Builds the learner and the trainer on `env`, checking everything that
     /// needs the environment (agents, features, graph, mixing matrix). The
     /// learner is the registered algorithm that `algorithm` names

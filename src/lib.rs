@@ -42,6 +42,17 @@
 //! writes SAC with a fixed temperature that way, registers it and runs it
 //! through [`cli::run`].
 //!
+//! ## Your own task
+//!
+//! A task is an [`core::Env`] of your crate with its settings
+//! ([`tasks::Task`]). One call, [`tasks::register`], lets experiment files
+//! choose it (`task = "herd"`, its settings in `[herd]`) and fmsr's command
+//! train, resume, export and evaluate it with any registered algorithm,
+//! the shadow rewards of its features and information sharing over its
+//! agents; [`task_eval`] measures what every task has. The Shadow Hand is
+//! the task `"shadow_hand"`, the default. `examples/downstream` registers
+//! its `Herd` that way and runs it through [`cli::run`].
+//!
 //! ## Features
 //!
 //! `cli` (default) brings the `fmsr` command, [`report`], [`render`] and
@@ -72,6 +83,8 @@ pub mod render;
 pub mod report;
 pub mod run;
 pub mod stack;
+pub mod task_eval;
+pub mod tasks;
 #[cfg(feature = "tensorboard")]
 pub mod tensorboard;
 

@@ -12,6 +12,7 @@ mod common;
 mod checkpoint;
 mod cli;
 mod custom_algorithm;
+mod custom_task;
 mod evaluation;
 mod fuzz;
 mod golden;

@@ -71,3 +71,107 @@ pub trait ContactReadout {
         None
     }
 }
+
+/// The error of an [`AnyEnv`]: its environment's own, boxed.
+#[derive(Debug, thiserror::Error)]
+#[error(transparent)]
+pub struct AnyEnvError(pub Box<dyn std::error::Error + Send + Sync + 'static>);
+
+/// Any [`Env`] behind one type: what a program chooses at run time (a task
+/// found by name in a config) trains and evaluates as [`AnyEnv`], with its
+/// errors boxed in [`AnyEnvError`]. Every call goes to the environment it holds.
+///
+/// ```
+/// use fmsr_core::env::{AnyEnv, Env};
+/// # use fmsr_core::spec::*;
+/// # #[derive(Debug)] struct Still { spec: EnvSpec }
+/// # impl Env for Still {
+/// #     type Error = std::io::Error;
+/// #     fn spec(&self) -> &EnvSpec { &self.spec }
+/// #     fn reset(&mut self, _: u64) -> Result<Observation, Self::Error> { Ok(obs()) }
+/// #     fn step(&mut self, _: &JointAction) -> Result<StepOutcome, Self::Error> {
+/// #         Ok(StepOutcome { observation: obs(), reward: -1.0, terminated: false, truncated: false,
+/// #             info: StepInfo { features: vec![0.0], ..StepInfo::default() } })
+/// #     }
+/// #     fn goal_distance(&self, a: &[f32], d: &[f32]) -> f32 { (a[0] - d[0]).abs() }
+/// #     fn goal_reward(&self, a: &[f32], d: &[f32]) -> f32 { -self.goal_distance(a, d) }
+/// # }
+/// # fn obs() -> Observation { Observation { global: vec![0.0], locals: vec![vec![0.0]], achieved_goal: vec![0.0], desired_goal: vec![2.0] } }
+/// # let spec = EnvSpec { agents: vec![AgentSpec { name: "a".into(), action_slots: vec![0], local_obs_dim: 1 }],
+/// #     action_dim: 1, obs_dim: 1, goal_dim: 1, episode_len: 3, features: vec!["f".into()], reward_range: (-2.0, 0.0) };
+/// let mut env = AnyEnv::new(Still { spec });
+/// assert_eq!(env.goal_distance(&[0.0], &[2.0]), 2.0);
+/// assert_eq!(env.reset(7)?.desired_goal, [2.0]);
+/// # Ok::<(), fmsr_core::env::AnyEnvError>(())
+/// ```
+pub struct AnyEnv {
+    inner: Box<dyn ErasedEnv>,
+}
+
+impl AnyEnv {
+    /// `env` behind [`AnyEnv`].
+    pub fn new<E: Env + Send + 'static>(env: E) -> Self {
+        Self { inner: Box::new(env) }
+    }
+}
+
+impl std::fmt::Debug for AnyEnv {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("AnyEnv").field("spec", self.inner.spec()).finish_non_exhaustive()
+    }
+}
+
+/// [`Env`] with its error boxed, so that it can be a trait object.
+trait ErasedEnv: Send {
+    fn spec(&self) -> &EnvSpec;
+    fn reset(&mut self, seed: u64) -> Result<Observation, AnyEnvError>;
+    fn step(&mut self, action: &JointAction) -> Result<StepOutcome, AnyEnvError>;
+    fn goal_distance(&self, achieved: &[f32], desired: &[f32]) -> f32;
+    fn goal_reward(&self, achieved: &[f32], desired: &[f32]) -> f32;
+}
+
+impl<E: Env + Send> ErasedEnv for E {
+    fn spec(&self) -> &EnvSpec {
+        Env::spec(self)
+    }
+
+    fn reset(&mut self, seed: u64) -> Result<Observation, AnyEnvError> {
+        Env::reset(self, seed).map_err(|e| AnyEnvError(Box::new(e)))
+    }
+
+    fn step(&mut self, action: &JointAction) -> Result<StepOutcome, AnyEnvError> {
+        Env::step(self, action).map_err(|e| AnyEnvError(Box::new(e)))
+    }
+
+    fn goal_distance(&self, achieved: &[f32], desired: &[f32]) -> f32 {
+        Env::goal_distance(self, achieved, desired)
+    }
+
+    fn goal_reward(&self, achieved: &[f32], desired: &[f32]) -> f32 {
+        Env::goal_reward(self, achieved, desired)
+    }
+}
+
+impl Env for AnyEnv {
+    type Error = AnyEnvError;
+
+    fn spec(&self) -> &EnvSpec {
+        self.inner.spec()
+    }
+
+    fn reset(&mut self, seed: u64) -> Result<Observation, AnyEnvError> {
+        self.inner.reset(seed)
+    }
+
+    fn step(&mut self, action: &JointAction) -> Result<StepOutcome, AnyEnvError> {
+        self.inner.step(action)
+    }
+
+    fn goal_distance(&self, achieved: &[f32], desired: &[f32]) -> f32 {
+        self.inner.goal_distance(achieved, desired)
+    }
+
+    fn goal_reward(&self, achieved: &[f32], desired: &[f32]) -> f32 {
+        self.inner.goal_reward(achieved, desired)
+    }
+}

@@ -92,7 +92,7 @@ pub mod trainer;
 
 pub use algorithm::{Algorithm, RewardModel};
 pub use collector::Collector;
-pub use env::{ContactReadout, Env};
+pub use env::{AnyEnv, ContactReadout, Env};
 pub use error::CoreError;
 pub use policy::{ActMode, Policy, PolicyState};
 /// The rand this crate's API takes (the replay buffer's sampling RNG, the
@@ -106,7 +106,7 @@ pub mod prelude {
     pub use crate::agent::{ActorView, Batch, Communicator, ObservationLayout, SingleProcess};
     pub use crate::algorithm::{Algorithm, RewardModel, UpdateStats};
     pub use crate::collector::Collector;
-    pub use crate::env::{ContactPoint, ContactReadout, Env, ObjectContacts};
+    pub use crate::env::{AnyEnv, ContactPoint, ContactReadout, Env, ObjectContacts};
     pub use crate::error::CoreError;
     pub use crate::method::Method;
     pub use crate::metrics::{

@@ -54,6 +54,12 @@ fn resolve_config(args: &TrainArgs) -> Result<(ExperimentConfig, RunDir, bool)> 
     };
     if let Some(e) = args.engine {
         let engine = Engine::from(e);
+        if !config.is_shadow_hand() {
+            return refuse(
+                "--engine",
+                format!("the task `{}` has no engines: --engine chooses the Shadow Hand's", config.task),
+            );
+        }
         if resume && engine != config.engine {
             return refuse(
                 "--engine",
@@ -226,12 +232,12 @@ fn train_with(args: &TrainArgs, comm: Arc<dyn Communicator>) -> Result<RunDir> {
     let done = if resume { dir.load_metrics().map(|m| m.len()).unwrap_or(0) } else { 0 };
     let rank = comm.rank();
     if rank == 0 {
+        let on = if config.is_shadow_hand() { format!("{:?}", config.engine) } else { config.task.clone() };
         eprintln!(
-            "training {} ({}, {}, {:?}) for {} epochs into {}{}",
+            "training {} ({}, {}, {on}) for {} epochs into {}{}",
             config.name,
             config.method.label(),
             config.algorithm,
-            config.engine,
             config.trainer.epochs,
             dir.root().display(),
             if resume { " (resumed)" } else { "" }
@@ -240,12 +246,30 @@ fn train_with(args: &TrainArgs, comm: Arc<dyn Communicator>) -> Result<RunDir> {
             eprintln!("on {} MPI ranks", comm.workers());
         }
     }
-    let mut progress = Progress::new(&config, done, rank == 0 && !args.quiet);
-    let on_epoch = |s: &EpochStats| progress.epoch(s);
-    let envs = (0..config.trainer.worker_envs(comm.workers())?)
+    let progress = Progress::new(&config, done, rank == 0 && !args.quiet);
+    let n = config.trainer.worker_envs(comm.workers())?;
+    if !config.is_shadow_hand() {
+        let envs = config.task_envs(n)?;
+        return train_on(args, &config, dir, envs, comm, progress);
+    }
+    let envs = (0..n)
         .map(|_| config.env_config().init_engine(config.engine))
         .collect::<Result<Vec<_>, _>>()
         .context(|| format!("building the {} Shadow Hand", config.engine.key()))?;
+    train_on(args, &config, dir, envs, comm, progress)
+}
+
+/// Trains `config` on `envs` into `dir`, as `args` say (new, resumed, rescued).
+fn train_on<E: Env + Send>(
+    args: &TrainArgs,
+    config: &ExperimentConfig,
+    dir: RunDir,
+    envs: Vec<E>,
+    comm: Arc<dyn Communicator>,
+    mut progress: Progress,
+) -> Result<RunDir> {
+    let resume = args.resume || args.rescue.is_some();
+    let on_epoch = |s: &EpochStats| progress.epoch(s);
     let rescue = args.rescue.as_deref().map(fmsr_core::trainer::RescuePoint::read).transpose()?;
     let start = match &rescue {
         Some(point) => {
@@ -259,7 +283,7 @@ fn train_with(args: &TrainArgs, comm: Arc<dyn Communicator>) -> Result<RunDir> {
         None if resume => run::Start::Resume,
         None => run::Start::New,
     };
-    run::train_from(&config, envs, &dir, start, comm.clone(), on_epoch)?;
+    run::train_from(config, envs, &dir, start, comm.clone(), on_epoch)?;
     progress.finish();
     Ok(dir)
 }
@@ -319,6 +343,9 @@ fn eval_once(run: &std::path::Path, choice: &EvalChoice) -> Result<()> {
     if let Some(n) = choice.episodes {
         config.eval.episodes = n;
     }
+    if !config.is_shadow_hand() {
+        return eval_task(run, &source, &config, choice);
+    }
     let trained_under = config.env.goal_distance;
     if let Some(d) = choice.goal_distance {
         config.env.goal_distance = d;
@@ -375,6 +402,44 @@ fn eval_once(run: &std::path::Path, choice: &EvalChoice) -> Result<()> {
             );
         }
         Source::Run(_) => {}
+    }
+    Ok(())
+}
+
+/// `fmsr eval` of a registered task ([`crate::task_eval`]): printed, and
+/// written into a run's directory or to `--out`.
+fn eval_task(run: &std::path::Path, source: &Source, config: &ExperimentConfig, choice: &EvalChoice) -> Result<()> {
+    let task = &config.task;
+    let none_of = |arg: &'static str, what: &str| {
+        refuse(arg, format!("the task `{task}` has no {what}: {arg} is the Shadow Hand's"))
+    };
+    if choice.engine.is_some() {
+        return none_of("--engine", "engines");
+    }
+    if choice.goal_distance.is_some() {
+        return none_of("--goal-distance", "choice of goal distance");
+    }
+    if choice.record {
+        return refuse("--record", format!("a policy file of the task `{task}` carries no evaluation"));
+    }
+    config.validate()?;
+    let mut shown = StageProgress::new(&format!("eval {}", run.display()), 1);
+    shown.stage(&format!("playing the {} set of {task} ({} episodes)", choice.set.key(), config.eval.episodes));
+    let report = crate::task_eval::evaluate_task(config, choice.set, source)?;
+    shown.set(1);
+    shown.finish();
+    println!("{}", report.to_markdown());
+    let out = match source {
+        Source::Run(dir) => {
+            Some(choice.out.clone().unwrap_or_else(|| crate::task_eval::TaskEvalReport::path_in(dir, choice.set)))
+        }
+        Source::Policy { .. } => choice.out.clone(),
+    };
+    if let Some(out) = out {
+        let json = serde_json::to_vec_pretty(&report)
+            .map_err(|e| ExperimentError::Encode { what: "the task's evaluation", reason: e.to_string() })?;
+        fmsr_core::persist::write_atomic(&out, &json)?;
+        println!("evaluation written to {}", out.display());
     }
     Ok(())
 }
@@ -475,6 +540,12 @@ pub(super) fn render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
     use crate::render::record_source_episode;
     let source = Source::open(&args.run)?;
     let config = source.config().context(|| "reading the run's config.toml")?;
+    if !config.is_shadow_hand() {
+        return refuse(
+            "run",
+            format!("`fmsr render` draws the Shadow Hand; {} trained the task `{}`", args.run.display(), config.task),
+        );
+    }
     let engine = args.engine.map_or(config.engine, Engine::from);
     let target = match &args.out {
         Some(out) => RenderTarget::from_path(out)?,
@@ -517,6 +588,20 @@ fn render_for_report(runs: &[PathBuf]) {
 }
 
 pub(super) fn report(runs: &[PathBuf], out: &std::path::Path) -> Result<()> {
+    for run in runs {
+        let config = Source::open(run)?.config().context(|| format!("reading the run {}", run.display()))?;
+        if !config.is_shadow_hand() {
+            return refuse(
+                "runs",
+                format!(
+                    "`fmsr report` tables the Shadow Hand's measures; {} trained the task `{}` \
+                     (`fmsr eval` measures it)",
+                    run.display(),
+                    config.task
+                ),
+            );
+        }
+    }
     let mut shown = StageProgress::new("report", 3);
     shown.stage(&format!("rendering test episode 0 of the {} run(s) not yet drawn", runs.len()));
     render_for_report(runs);

@@ -1,111 +1,19 @@
-//! A user's crate: a new multi-agent task (`Env`), a communication topology
-//! (`Topology`) and a mixing rule (`MixingRule`) of its own, trained with
-//! fmsr's MADDPG, shadow rewards and information sharing through the public
-//! API only; then an algorithm of its own (`sac.rs`, SAC with a fixed
-//! temperature) registered by name and run by fmsr's own command.
-//!
-//! `Herd`: three agents move along a line; the goal is a position for their
-//! mean. The stability feature `together` is on while the agents stay within
-//! 0.5 of each other; every agent gets its shadow reward.
+//! A user's crate: a new multi-agent task (`Env`, `herd.rs`), a
+//! communication topology (`Topology`) and a mixing rule (`MixingRule`) of
+//! its own, trained with fmsr's MADDPG, shadow rewards and information
+//! sharing through the public API only; then an algorithm of its own
+//! (`sac.rs`, SAC with a fixed temperature and its own Huber loss) and the
+//! task registered by name and run by fmsr's own command, each alone and
+//! together.
 
 use anyhow::{Result, bail};
 use fmsr_core::prelude::*;
 use fmsr_graph::{Graph, GraphError, MixingMatrix, MixingRule, Topology};
 use fmsr_nn::{LearnerParts, Maddpg, MaddpgConfig, NetworkConfig};
-use rand::{Rng, SeedableRng};
+use herd::{AGENTS, Herd, HerdConfig};
 
+mod herd;
 mod sac;
-
-const AGENTS: usize = 3;
-
-#[derive(Debug, thiserror::Error)]
-#[error(transparent)]
-struct HerdError(#[from] CoreError);
-
-/// The herding task.
-struct Herd {
-    spec: EnvSpec,
-    x: [f32; AGENTS],
-    goal: f32,
-}
-
-impl Herd {
-    fn new() -> Result<Self> {
-        let agents =
-            (0..AGENTS).map(|i| AgentSpec { name: format!("a{i}"), action_slots: vec![i], local_obs_dim: 2 }).collect();
-        let spec = EnvSpec {
-            agents,
-            action_dim: AGENTS,
-            obs_dim: AGENTS,
-            goal_dim: 1,
-            episode_len: 20,
-            features: vec!["together".into()],
-            reward_range: (-4.0, 0.0),
-        };
-        spec.validate()?;
-        Ok(Self { spec, x: [0.0; AGENTS], goal: 0.0 })
-    }
-
-    fn mean(&self) -> f32 {
-        self.x.iter().sum::<f32>() / AGENTS as f32
-    }
-
-    fn observation(&self) -> Observation {
-        let mean = self.mean();
-        Observation {
-            global: self.x.to_vec(),
-            locals: self.x.iter().map(|&x| vec![x, x - mean]).collect(),
-            achieved_goal: vec![mean],
-            desired_goal: vec![self.goal],
-        }
-    }
-}
-
-impl Env for Herd {
-    type Error = HerdError;
-
-    fn spec(&self) -> &EnvSpec {
-        &self.spec
-    }
-
-    fn reset(&mut self, seed: u64) -> Result<Observation, HerdError> {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        for x in &mut self.x {
-            *x = rng.random_range(-1.0..1.0);
-        }
-        self.goal = rng.random_range(-1.0..1.0);
-        Ok(self.observation())
-    }
-
-    fn step(&mut self, action: &JointAction) -> Result<StepOutcome, HerdError> {
-        action.validate(&self.spec)?;
-        for (x, a) in self.x.iter_mut().zip(&action.0) {
-            *x = (*x + 0.15 * a).clamp(-2.0, 2.0);
-        }
-        let obs = self.observation();
-        let spread = self.x.iter().fold(f32::MIN, |m, &x| m.max(x)) - self.x.iter().fold(f32::MAX, |m, &x| m.min(x));
-        let distance = self.goal_distance(&obs.achieved_goal, &obs.desired_goal);
-        Ok(StepOutcome {
-            reward: self.goal_reward(&obs.achieved_goal, &obs.desired_goal),
-            terminated: false,
-            truncated: false,
-            info: StepInfo {
-                is_success: distance < 0.1,
-                features: vec![f32::from(u8::from(spread < 0.5))],
-                dropped: false,
-            },
-            observation: obs,
-        })
-    }
-
-    fn goal_distance(&self, achieved: &[f32], desired: &[f32]) -> f32 {
-        (achieved[0] - desired[0]).abs()
-    }
-
-    fn goal_reward(&self, achieved: &[f32], desired: &[f32]) -> f32 {
-        RewardType::Dense.reward(self.goal_distance(achieved, desired), 0.1)
-    }
-}
 
 /// A chain a0 - a1 - a2.
 struct Chain;
@@ -138,7 +46,7 @@ impl MixingRule for HalfLazyMaxDegree {
 }
 
 fn main() -> Result<()> {
-    let env = Herd::new()?;
+    let env = Herd::new(HerdConfig::default())?;
     let spec = env.spec().clone();
     let graph = Chain.graph()?;
     let mixing = HalfLazyMaxDegree.mixing_matrix(&graph)?;
@@ -173,7 +81,7 @@ fn main() -> Result<()> {
     println!("downstream crate trained {} epochs through the public API", trainer.epoch());
     let dir = std::env::temp_dir().join(format!("fmsr-downstream-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
-    let ran = sac::run_by_name(&dir);
+    let ran = sac::run_by_name(&dir).and_then(|()| herd::run_by_name(&dir));
     std::fs::remove_dir_all(&dir)?;
     ran
 }

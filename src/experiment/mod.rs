@@ -69,6 +69,7 @@ use fmsr_nn::{ConfiguredRule, CriticTying, Device, DeviceSpec, NetworkConfig, No
 
 use crate::algorithms;
 pub use crate::stack::Stack;
+use crate::tasks::{self, SHADOW_HAND};
 
 /// The timestep of the Shadow Hand model (s); one env step is `substeps` of them.
 pub const MODEL_TIMESTEP: f64 = 0.002;
@@ -203,6 +204,16 @@ pub struct ExperimentConfig {
     /// HER baselines' target clip and normaliser statistics).
     #[serde(default)]
     pub stack: Stack,
+    /// The task by its name ([`crate::tasks`]; default `"shadow_hand"`, the
+    /// paper's, whose settings are `engine` and `[env]`). A registered
+    /// task's settings are its `[<task>]` section
+    /// ([`ExperimentConfig::task_settings`]).
+    #[serde(default = "default_task", skip_serializing_if = "is_shadow_hand")]
+    pub task: String,
+    /// The registered task's settings, every one written out; `None` for
+    /// the Shadow Hand.
+    #[serde(skip)]
+    task_settings: Option<toml::Table>,
     /// The learning algorithm by its registered name
     /// ([`crate::algorithms`]; default `"maddpg"`, the paper's).
     #[serde(default = "default_algorithm")]
@@ -247,6 +258,15 @@ pub struct ExperimentConfig {
 
 fn default_device() -> String {
     "cpu".into()
+}
+
+fn default_task() -> String {
+    SHADOW_HAND.into()
+}
+
+#[allow(clippy::ptr_arg)] // serde's `skip_serializing_if` passes `&String`
+fn is_shadow_hand(task: &String) -> bool {
+    task == SHADOW_HAND
 }
 
 fn default_algorithm() -> String {
@@ -332,6 +352,14 @@ fn check_owners(table: &toml::Table) -> Result<(), ExperimentError> {
             return conflict(name, format!("`algorithm = \"{algorithm}\"` does not read `[{name}]`"));
         }
     }
+    // (An unknown task is reported by its lookup, listing the tasks.)
+    let task = text(&["task"]).unwrap_or_else(|| SHADOW_HAND.into());
+    let names = tasks::names();
+    for &name in names.iter().filter(|_| names.contains(&task.as_str())) {
+        if name != task && table.contains_key(name) {
+            return conflict(name, format!("`task = \"{task}\"` does not read `[{name}]`"));
+        }
+    }
     Ok(())
 }
 
@@ -376,6 +404,7 @@ impl ExperimentConfig {
                 return Err(parse_err("`algorithm` must be a string, the name of a registered algorithm".into()));
             }
         };
+        let (_, task_settings) = tasks::take_section(&mut value, &algorithm)?;
         let section = match value.remove(&algorithm) {
             None => None,
             Some(toml::Value::Table(section)) => Some(section),
@@ -399,6 +428,7 @@ impl ExperimentConfig {
         let mut config =
             ExperimentConfig::deserialize(toml::Value::Table(value)).map_err(|e| parse_err(e.to_string()))?;
         config.algorithm_sections.insert(algorithm, settings);
+        config.task_settings = task_settings;
         if let Some(d) = config.stack.goal_distance() {
             config.env.goal_distance = d;
         }
@@ -425,6 +455,9 @@ impl ExperimentConfig {
     pub fn from_saved_toml(text: &str, path: &Path) -> Result<Self, ExperimentError> {
         let parse_err = |message: String| ExperimentError::Parse { path: path.to_path_buf(), message };
         let mut value: toml::Table = toml::from_str(text).map_err(|e| parse_err(e.to_string()))?;
+        if value.get("task").and_then(toml::Value::as_str).is_some_and(|t| t != SHADOW_HAND) {
+            return Self::from_toml(text, path);
+        }
         let env = value.entry("env").or_insert_with(|| toml::Value::Table(toml::Table::new()));
         let env = env.as_table_mut().ok_or_else(|| parse_err("`env` must be a table".into()))?;
         if !env.contains_key("goal_distance") {
@@ -456,6 +489,11 @@ impl ExperimentConfig {
         let mut table = toml::Table::try_from(self.clone().with_sections_written()).map_err(err)?;
         let (_, settings) = self.algorithm_entry()?;
         table.insert(self.algorithm.clone(), toml::Value::Table(settings));
+        if let Some(settings) = &self.task_settings {
+            table.remove("env");
+            table.remove("engine");
+            table.insert(self.task.clone(), toml::Value::Table(settings.clone()));
+        }
         if let Some(toml::Value::Table(env)) = table.get_mut("env") {
             env.remove("reward");
         }
@@ -521,8 +559,9 @@ impl ExperimentConfig {
     /// [`Stack::Paper`], and otherwise by `gym distance`, `HER target clip`
     /// and `HER normaliser statistics` for each of its settings alone; and by the algorithm and the training
     /// engine when they are not the paper's (MADDPG, rapier here), e.g. `Dense, MATD3, trained
-    /// on MuJoCo`, so that a report never pools runs of two algorithms or two
-    /// engines as seeds of one configuration.
+    /// on MuJoCo`, and by the task's name when it is not the Shadow Hand, so
+    /// that a report never pools runs of two algorithms, two engines or two
+    /// tasks as seeds of one configuration.
     #[must_use]
     pub fn label(&self) -> String {
         let mut label = match &self.env.agents {
@@ -587,10 +626,26 @@ impl ExperimentConfig {
             }
             None => label.push_str(&format!(", {}", self.algorithm.to_uppercase())),
         }
-        if self.engine == Engine::Mujoco {
+        if self.engine == Engine::Mujoco && self.is_shadow_hand() {
             label.push_str(", trained on MuJoCo");
         }
+        if !self.is_shadow_hand() {
+            label.push_str(&format!(", {}", self.task));
+        }
         label
+    }
+
+    /// Whether the task is the Shadow Hand (`task = "shadow_hand"`, the default).
+    #[must_use]
+    pub fn is_shadow_hand(&self) -> bool {
+        self.task == SHADOW_HAND
+    }
+
+    /// A registered task's settings (its `[<task>]` section, every setting
+    /// written out); `None` for the Shadow Hand, whose settings are `env`.
+    #[must_use]
+    pub fn task_settings(&self) -> Option<&toml::Table> {
+        self.task_settings.as_ref()
     }
 
     /// Which teammates' actions the chosen algorithm's actor loss takes.
@@ -716,240 +771,4 @@ impl ExperimentConfig {
 }
 
 #[cfg(test)]
-mod label_tests {
-    use std::path::Path;
-
-    use super::{Engine, ExperimentConfig, ExperimentError, GoalDistance, Stack, TargetClip};
-
-    // Guards the report's grouping: a single agent owning the whole hand is a
-    // configuration of its own, never pooled with the paper's six-agent Sparse.
-    #[test]
-    fn a_single_agent_config_is_labelled_apart_from_the_paper_method() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/lite");
-        let single = ExperimentConfig::load(&root.join("block_single_agent_sparse.toml")).unwrap();
-        let six = ExperimentConfig::load(&root.join("block_sparse.toml")).unwrap();
-        assert_eq!((single.label(), six.label()), ("Sparse, 1 agent".to_string(), "Sparse".to_string()));
-    }
-
-    // Guards the reproducibility of a run: its config.toml names every setting
-    // of its algorithm, also those the experiment file left to their defaults,
-    // so a later change of a default (say `teammates`) cannot change a run
-    // that is resumed or evaluated.
-    #[test]
-    fn a_written_config_records_the_algorithms_settings() {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/block_dense_fmsr_is_quick.toml");
-        assert!(!std::fs::read_to_string(&path).unwrap().contains("[maddpg]"));
-        let written = ExperimentConfig::load(&path).unwrap().to_toml().unwrap();
-        let table: toml::Table = written.parse().unwrap();
-        let maddpg = table.get("maddpg").and_then(toml::Value::as_table).expect("a [maddpg] section");
-        for key in ["polyak", "teammates", "action_l2"] {
-            assert!(maddpg.contains_key(key), "[maddpg] lacks `{key}`:\n{written}");
-        }
-        assert!(!table.contains_key("matd3") && !table.contains_key("masac"), "{written}");
-    }
-
-    // Guards the report's grouping of the teammates ablation: its runs are
-    // labelled apart from the method's.
-    #[test]
-    fn the_current_teammates_ablation_is_labelled_apart() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/lite");
-        let ablation =
-            ExperimentConfig::load(&root.join("ablation/block_dense_fmsr_is_current_teammates.toml")).unwrap();
-        let method = ExperimentConfig::load(&root.join("block_dense_fmsr_is.toml")).unwrap();
-        assert_eq!(ablation.label(), "Dense+FMSR+IS, current teammates");
-        assert_eq!(method.label(), "Dense+FMSR+IS");
-    }
-
-    // Guards the report's grouping by algorithm and training engine: a MATD3
-    // or MuJoCo-trained run was once labelled as the method alone, and so
-    // pooled with the MADDPG, rapier runs as one more seed.
-    #[test]
-    fn other_algorithms_and_engines_are_labelled_apart() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/lite");
-        let method = ExperimentConfig::load(&root.join("block_dense.toml")).unwrap();
-        let with = |algorithm: &str, engine| {
-            ExperimentConfig { algorithm: algorithm.into(), engine, ..method.clone() }.label()
-        };
-        assert_eq!(with("maddpg", Engine::Rapier), "Dense");
-        assert_eq!(with("matd3", Engine::Rapier), "Dense, MATD3");
-        assert_eq!(with("masac", Engine::Mujoco), "Dense, MASAC, trained on MuJoCo");
-        assert_eq!(with("maddpg", Engine::Mujoco), "Dense, trained on MuJoCo");
-        assert_eq!(with("not_registered_here", Engine::Rapier), "Dense, NOT_REGISTERED_HERE");
-    }
-
-    // Guards the report's grouping of the full-angle experiments: E3's runs with
-    // another shadow weight, E5's information sharing on gradients and the
-    // runs of the yaw-only task before it were labelled as the method alone,
-    // so a report over them and E2's runs pooled them as more seeds of
-    // Dense+FMSR+IS, and `fmsr run` set the yaw-era policy beside its run.
-    #[test]
-    fn shadow_weight_and_sharing_changes_are_labelled_apart() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/lite");
-        let method = ExperimentConfig::load(&root.join("egg_dense_fmsr_is.toml")).unwrap();
-        assert_eq!(method.label(), "Dense+FMSR+IS");
-        let alpha = ExperimentConfig::load(&root.join("alpha/egg_dense_fmsr_is_alpha003.toml")).unwrap();
-        assert_eq!(alpha.label(), "Dense+FMSR+IS, alpha 0.03, trained on MuJoCo");
-        let gradients = ExperimentConfig::load(&root.join("ablation/egg_dense_fmsr_is_gradient_sharing.toml")).unwrap();
-        assert_eq!(gradients.label(), "Dense+FMSR+IS, IS on gradients");
-        let mut critics = method.clone();
-        critics.sharing.get_or_insert_with(Default::default).target = fmsr_core::sharing::ShareTarget::Both;
-        assert_eq!(critics.label(), "Dense+FMSR+IS, IS on actors and critics");
-        // A saved run of the yaw-only task (its config names no distance) is another task.
-        let yaw = ExperimentConfig::from_saved_toml(
-            &method.to_toml().unwrap().replace("goal_distance = \"full\"\n", ""),
-            &root,
-        )
-        .unwrap();
-        assert_eq!(yaw.label(), "Dense+FMSR+IS, yaw distance");
-        // Dense+FMSR neither shares nor changes its label for sharing's defaults.
-        let fmsr = ExperimentConfig::load(&root.join("egg_dense_fmsr.toml")).unwrap();
-        assert_eq!(fmsr.label(), "Dense+FMSR");
-    }
-
-    /// `section.key` → value of every setting of a TOML file (the run's name left out).
-    fn settings(path: &Path) -> std::collections::BTreeMap<String, toml::Value> {
-        let table: toml::Table = std::fs::read_to_string(path).unwrap().parse().unwrap();
-        let mut out = std::collections::BTreeMap::new();
-        for (key, value) in table {
-            match value {
-                toml::Value::Table(section) => {
-                    out.extend(section.into_iter().map(|(k, v)| (format!("{key}.{k}"), v)));
-                }
-                value if key != "name" => drop(out.insert(key, value)),
-                _ => {}
-            }
-        }
-        out
-    }
-
-    /// The TOML files of `dir`, sorted.
-    fn toml_files(dir: &Path) -> Vec<std::path::PathBuf> {
-        let mut files: Vec<_> = std::fs::read_dir(dir)
-            .unwrap()
-            .map(|e| e.unwrap().path())
-            .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-            .collect();
-        files.sort();
-        files
-    }
-
-    /// The settings in which the ablation config `path` differs from its
-    /// method's lite config in `root`, and the labels of the two.
-    fn changes(root: &Path, path: &Path) -> (String, std::collections::BTreeSet<String>, [String; 2]) {
-        let a = settings(path);
-        let name = |key: &str| a[key].as_str().unwrap().to_string();
-        let base = format!("{}_{}.toml", name("env.object"), name("method"));
-        let b = settings(&root.join(&base));
-        let changed = a.keys().chain(b.keys()).filter(|k| a.get(*k) != b.get(*k)).cloned().collect();
-        let label = |p: &Path| ExperimentConfig::load(p).unwrap().label();
-        (base.clone(), changed, [label(path), label(&root.join(base))])
-    }
-
-    // Guards the paper-budget pair on MuJoCo: each config
-    // in configs/mujoco/ is the paper's config of its name with `engine`
-    // changed, and with the shadow reward's `alpha` (chosen by E3) at most.
-    #[test]
-    fn paper_configs_on_mujoco_change_the_engine_alone() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
-        let files = toml_files(&root.join("mujoco"));
-        assert!(!files.is_empty());
-        for path in files {
-            let paper = root.join(path.file_name().unwrap());
-            let (a, b) = (settings(&path), settings(&paper));
-            let changed: std::collections::BTreeSet<_> =
-                a.keys().chain(b.keys()).filter(|k| a.get(*k) != b.get(*k)).cloned().collect();
-            assert!(changed.contains("engine"), "{}", path.display());
-            assert!(
-                changed.iter().all(|k| k == "engine" || k == "trainer.shadow.alpha"),
-                "{} against {}: {changed:?}",
-                path.display(),
-                paper.display()
-            );
-            assert_eq!(a["engine"].as_str(), Some("mujoco"), "{}", path.display());
-            let name = |p: &Path| ExperimentConfig::load(p).unwrap().name;
-            assert_eq!(name(&path), name(&paper), "{}: the run keeps the paper config's name", path.display());
-        }
-    }
-
-    // Guards what E6 and E7 compare: each config in configs/lite/paper_stack/
-    // is its method's lite config with `stack = "paper"` alone, each in
-    // configs/lite/attribution/ changes exactly one of the settings that
-    // stack owns, to the stack's value, and every one is labelled apart.
-    #[test]
-    fn the_paper_stack_runs_change_what_they_say() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/lite");
-        let stack = toml_files(&root.join("paper_stack"));
-        assert_eq!(stack.len(), 2);
-        for path in &stack {
-            let (base, changed, [label, method]) = changes(&root, path);
-            assert_eq!(changed, ["stack".to_string()].into(), "{} against {base}", path.display());
-            assert_eq!(label, format!("{method}, paper stack"));
-        }
-        let attribution = toml_files(&root.join("attribution"));
-        let mut owned = std::collections::BTreeSet::new();
-        for path in &attribution {
-            let (base, changed, [label, method]) = changes(&root, path);
-            assert_eq!(changed.len(), 1, "{} against {base}: {changed:?}", path.display());
-            let key = changed.into_iter().next().unwrap();
-            let rule = Stack::OWNED.iter().find(|o| o.key == key).expect("a setting the paper stack owns");
-            assert_eq!(settings(path)[&key].as_str(), Some(rule.paper), "{}", path.display());
-            assert_ne!(label, method);
-            owned.insert(key);
-        }
-        assert_eq!(owned.len(), Stack::OWNED.len(), "one attribution run per owned setting");
-    }
-
-    // Guards the preset's ownership: `stack = "paper"` sets both settings,
-    // refuses a file that contradicts it (naming the key), and a run's
-    // config.toml reads back as the same experiment.
-    #[test]
-    fn the_paper_stack_owns_its_settings() {
-        let text = "name = \"x\"\nmethod = \"dense\"\nstack = \"paper\"\n";
-        let config = ExperimentConfig::from_toml(text, "x.toml".as_ref()).unwrap();
-        assert_eq!(config.env.goal_distance, GoalDistance::Gym);
-        assert_eq!(config.networks.target_clip, TargetClip::HerBaselines);
-        assert_eq!(config.networks.normalizer_stats, fmsr_nn::NormalizerStats::StoredEpisodes);
-        let again = ExperimentConfig::from_saved_toml(&config.to_toml().unwrap(), "x.toml".as_ref()).unwrap();
-        assert_eq!(again, config);
-        for (extra, key) in [
-            ("[env]\ngoal_distance = \"full\"\n", "env.goal_distance"),
-            ("[networks]\ntarget_clip = \"reward_bounds\"\n", "networks.target_clip"),
-            ("[networks]\nnormalizer_stats = \"sampled_batches\"\n", "networks.normalizer_stats"),
-        ] {
-            let err = ExperimentConfig::from_toml(&format!("{text}{extra}"), "x.toml".as_ref()).unwrap_err();
-            assert!(matches!(&err, ExperimentError::Config { key: k, .. } if k == key), "{extra}: {err}");
-            assert!(err.to_string().contains("stack"), "{err}");
-        }
-        // The stack's own values are no contradiction, and without the preset each is free.
-        let agreeing = format!("{text}[env]\ngoal_distance = \"gym\"\n");
-        assert!(ExperimentConfig::from_toml(&agreeing, "x.toml".as_ref()).is_ok());
-        let free = "name = \"x\"\nmethod = \"dense\"\n[networks]\ntarget_clip = \"her_baselines\"\n";
-        let free = ExperimentConfig::from_toml(free, "x.toml".as_ref()).unwrap();
-        assert_eq!((free.stack, free.env.goal_distance), (Stack::Fmsr, GoalDistance::Full));
-        assert_eq!(free.label(), "Dense, HER target clip");
-    }
-
-    // Guards what the ablations of docs/notebook/results.md claim: each config in
-    // configs/lite/ablation/ is its method's lite config with one setting
-    // changed, each in ablation/combined/ changes two or more of those
-    // settings at once, and their runs are labelled apart from the method's.
-    #[test]
-    fn every_ablation_changes_one_setting_of_its_methods_config() {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/lite");
-        let mut switches = std::collections::BTreeSet::new();
-        let singles = toml_files(&root.join("ablation"));
-        for path in &singles {
-            let (base, changed, [ablation, method]) = changes(&root, path);
-            assert_eq!(changed.len(), 1, "{} against {base}: {changed:?}", path.display());
-            assert_ne!(ablation, method, "{}", path.display());
-            switches.extend(changed);
-        }
-        assert!(singles.len() >= 5, "{} ablation configs", singles.len());
-        for path in toml_files(&root.join("ablation/combined")) {
-            let (base, changed, [ablation, method]) = changes(&root, &path);
-            assert!(changed.len() >= 2, "{} against {base}: {changed:?}", path.display());
-            assert!(changed.is_subset(&switches), "{}: {changed:?} not all single switches", path.display());
-            assert_ne!(ablation, method, "{}", path.display());
-        }
-    }
-}
+mod label_tests;
