@@ -102,6 +102,14 @@ pub struct NetworkConfig {
     /// default) clips nothing. Element-wise, so stacked agents stay independent.
     #[config(default = 0.0)]
     pub grad_clip_value: f64,
+    /// Each agent's gradient of its actor, and of its critics together, is
+    /// scaled so that its L2 norm over the whole network is at most
+    /// `grad_clip_norm` before the Adam step (after worker averaging and
+    /// gradient sharing), as PyTorch's `clip_grad_norm_` on one agent's
+    /// network; 0 (the default) clips nothing. One agent's gradient never
+    /// scales another's.
+    #[config(default = 0.0)]
+    pub grad_clip_norm: f64,
 }
 
 /// The critics' loss on the TD error `d = Q_i(x, g, a) - y_i`, averaged over the batch.
@@ -345,6 +353,7 @@ impl NetworkConfig {
             ("networks.clip_obs", self.clip_obs.is_finite() && self.clip_obs > 0.0, "must be finite and > 0"),
             ("networks.norm_eps", self.norm_eps.is_finite() && self.norm_eps > 0.0, "must be finite and > 0"),
             ("networks.grad_clip_value", nonneg(self.grad_clip_value), "must be finite and >= 0 (0: no clipping)"),
+            ("networks.grad_clip_norm", nonneg(self.grad_clip_norm), "must be finite and >= 0 (0: no clipping)"),
             ("networks.adam_beta1", (0.0..1.0).contains(&self.adam_beta1), "must lie in [0, 1)"),
             ("networks.adam_beta2", (0.0..1.0).contains(&self.adam_beta2), "must lie in [0, 1)"),
             ("networks.adam_epsilon", self.adam_epsilon.is_finite() && self.adam_epsilon > 0.0, "must be > 0"),

@@ -30,6 +30,8 @@ pub(crate) struct Nets {
     pub(crate) critic_targets: Critics,
     pub(crate) actor_optim: ModuleOptimizer,
     pub(crate) critic_optim: ModuleOptimizer,
+    /// Each agent's gradient norm limit before a step (0: none; [`crate::clip`]).
+    pub(crate) grad_clip_norm: f32,
 }
 
 impl Nets {
@@ -73,7 +75,10 @@ impl Nets {
     }
 
     /// One Adam step of the networks of `kind`.
-    pub(crate) fn optimize(&mut self, kind: NetworkKind, lr: f64, grads: GradientsParams) {
+    pub(crate) fn optimize(&mut self, kind: NetworkKind, lr: f64, mut grads: GradientsParams) {
+        if self.grad_clip_norm > 0.0 {
+            crate::clip::clip_by_agent_norm(&mut grads, &self.ids(kind), self.grad_clip_norm);
+        }
         match kind {
             NetworkKind::Actors => self.actors = self.actor_optim.step(lr, self.actors.clone(), grads),
             NetworkKind::Critics => self.critics = self.critic_optim.step(lr, self.critics.clone(), grads),
@@ -296,6 +301,8 @@ pub(crate) struct GroupSpec<'a> {
     /// Whether information sharing mixes the actors' / critics' trunks (they then start equal).
     pub(crate) same_trunks: (bool, bool),
     pub(crate) adam: AdamConfig,
+    /// Each agent's gradient norm limit (0: none).
+    pub(crate) grad_clip_norm: f64,
 }
 
 /// First parameter id of network kind `kind` (0 actors, 1 target actors,
@@ -376,6 +383,7 @@ impl Group {
             critic_targets: critics_on(device, 3),
             actor_optim: spec.adam.init(),
             critic_optim: spec.adam.init(),
+            grad_clip_norm: spec.grad_clip_norm as f32,
         };
         let offsets: Vec<usize> = r.clone().map(|i| spec.actions[..i].iter().sum()).collect();
         let joint = Joint::new(&spec.actions[r.clone()], &offsets, width, device);

@@ -77,6 +77,7 @@
 #![warn(missing_docs)]
 
 mod any;
+mod clip;
 mod config;
 pub mod device;
 mod error;

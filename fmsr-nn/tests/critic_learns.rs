@@ -129,3 +129,24 @@ fn clipped_gradients_reach_the_optimiser() {
     assert!(free > 1e-4 && clipped < 1e-6, "largest change {free} unclipped, {clipped} clipped");
     assert!(NetworkConfig::new().with_grad_clip_value(-1.0).validate().is_err());
 }
+
+// Guards `networks.grad_clip_norm`: each agent's gradient scaled to a norm
+// of 1e-12 leaves Adam a step of about 1e-4 of the learning rate, so the
+// critics barely move; a limit above every agent's norm (1e9) changes
+// nothing, bit for bit.
+#[test]
+fn gradients_clipped_by_norm_reach_the_optimiser() {
+    let layout = common::layout(&[2, 1], 4, 2);
+    let after = |clip: f64| {
+        let net = NetworkConfig::new().with_hidden(16).with_layers(2).with_seed(4).with_grad_clip_norm(clip);
+        let mut l = Maddpg::new(common::parts(&layout, net, 0.0), MaddpgConfig::new()).unwrap();
+        let before = l.params(0).unwrap().1;
+        l.learn_batch(&common::batch(&layout, 64, 1), &common::bounds(&layout)).unwrap();
+        (before, l.params(0).unwrap().1)
+    };
+    let moved = |(a, b): (Vec<f32>, Vec<f32>)| a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
+    let (free, clipped) = (moved(after(0.0)), moved(after(1e-12)));
+    assert!(free > 1e-4 && clipped < 1e-6, "largest change {free} unclipped, {clipped} clipped");
+    assert_eq!(after(0.0).1, after(1e9).1);
+    assert!(NetworkConfig::new().with_grad_clip_norm(-1.0).validate().is_err());
+}

@@ -298,6 +298,7 @@ impl Learner {
                 .with_grad_clipping(
                     (net.grad_clip_value > 0.0).then_some(GradientClippingConfig::Value(net.grad_clip_value as f32)),
                 ),
+            grad_clip_norm: net.grad_clip_norm,
         };
         let groups: Vec<Group> = group_ranges(&net, na, &device)
             .into_iter()
