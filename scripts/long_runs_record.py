@@ -63,7 +63,7 @@ def read_eval(path, within):
     k = round(e["success_rate"] * e["episodes"])
     drops = sum(1 for r in e.get("records", []) if r.get("dropped"))
     return {"interval": wilson(k, e["episodes"]), "episodes": e["episodes"], "drops": drops,
-            "rule": e.get("success_rule", "reached"), **final_angles(e, within)}
+            "rule": e["success_rule"], **final_angles(e, within)}
 
 
 def trim(path):

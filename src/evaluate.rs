@@ -9,8 +9,7 @@
 //! not been manipulated. Training keeps gymnasium's definition (the error
 //! under the training threshold at the last step, drops not looked at): its
 //! reward and "train success" follow HER's, and the per-epoch "eval success"
-//! in `metrics.csv` is that same flag on deterministic episodes. Evaluations
-//! written before this rule carry [`SuccessRule::Reached`] and are marked so.
+//! in `metrics.csv` is that same flag on deterministic episodes.
 //!
 //! Every success rate is given with its 95 % Wilson interval
 //! ([`fmsr_core::interval`]); each episode is recorded ([`EpisodeRecord`]),
@@ -235,7 +234,6 @@ pub fn evaluate_source_with<E: Env + ContactReadout + Send>(
         outcomes,
         episode_summaries: summaries,
         records,
-        initial_distances: Vec::new(),
         trace: first_trace.unwrap_or_default(),
         precision: source.precision(),
         seconds: start.elapsed().as_secs_f64(),

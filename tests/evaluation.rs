@@ -173,13 +173,12 @@ fn an_evaluation_names_the_distance_it_counted_by() {
         let success = angle < f64::from(gym.threshold) && !r.dropped;
         assert_eq!(success, r.outcome == fmsr_core::metrics::EpisodeOutcome::Success, "{r:?}");
     }
-    // The same run, its config written before the distance existed.
-    let legacy = config.replace("goal_distance = \"full\"\n", "");
-    assert_ne!(legacy, config);
-    std::fs::write(run.join("config.toml"), legacy).unwrap();
+    // The same run, its config naming no distance: refused, naming the key.
+    let unnamed = config.replace("goal_distance = \"full\"\n", "");
+    assert_ne!(unnamed, config);
+    std::fs::write(run.join("config.toml"), unnamed).unwrap();
     let out = fmsr(&["eval", run_s, "--episodes", "2"]);
-    assert!(out.status.success(), "{}", text(&out));
-    assert_eq!(read_eval(&run.join("eval.json")).goal_distance, GoalDistance::Yaw);
+    assert!(!out.status.success() && text(&out).contains("env.goal_distance"), "{}", text(&out));
 }
 
 /// Waits until `cond` holds, for at most a minute.

@@ -17,7 +17,6 @@ mod evaluation;
 mod fuzz;
 mod golden;
 mod learning;
-mod legacy_formats;
 mod rescue;
 mod shipped;
 mod user_shadow_reward;

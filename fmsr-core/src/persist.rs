@@ -14,14 +14,11 @@
 //! length field from allocating more than the file holds.
 //!
 //! The checksum is CRC-32C ([`crc32c`], zero-extended to 64 bits), the one the
-//! TensorBoard writer uses too. Files written before the switch carry FNV-1a
-//! (64 bit): each kind of file bumped its version when it switched, and its
-//! [`Format`] says from which version on it is CRC-32C, so a build reads the
-//! older files as before ([`Checksum::of_version`]).
+//! TensorBoard writer uses too.
 //!
 //! ```
 //! use fmsr_core::persist::{decode, encode, Format, FormatError};
-//! const EXAMPLE: Format = Format::new(b"EXAMPLE\0", 2).reads_from(1).crc32c_since(2);
+//! const EXAMPLE: Format = Format::new(b"EXAMPLE\0", 2).reads_from(1);
 //! let bytes = encode(&EXAMPLE, &vec![1.5f32, -0.25]).unwrap();
 //! let back: Vec<f32> = decode(&EXAMPLE, &bytes).unwrap();
 //! assert_eq!(back, [1.5, -0.25]);
@@ -40,17 +37,14 @@ use crate::error::CoreError;
 /// Bytes before the body: magic, version and checksum.
 pub const HEADER_LEN: usize = 20;
 
-/// One kind of file: its magic number, the version this build writes, the
-/// oldest version it still reads (with the same body), and the version from
-/// which on its files carry CRC-32C rather than FNV-1a.
+/// One kind of file: its magic number, the version this build writes, and
+/// the oldest version it still reads (with the same body).
 ///
 /// ```
-/// use fmsr_core::persist::{Checksum, Format};
-/// // Version 4 written, 3 still read; 3 was framed with FNV-1a.
-/// const CHECKPOINT: Format = Format::new(b"FMSRCKPT", 4).reads_from(3).crc32c_since(4);
-/// assert_eq!(CHECKPOINT.checksum(3), Checksum::Fnv1a);
-/// assert_eq!(CHECKPOINT.checksum(4), Checksum::Crc32c);
-/// assert!(CHECKPOINT.reads(3) && !CHECKPOINT.reads(2) && !CHECKPOINT.reads(5));
+/// use fmsr_core::persist::Format;
+/// // Version 5 written, 4 still read.
+/// const CHECKPOINT: Format = Format::new(b"FMSRCKPT", 5).reads_from(4);
+/// assert!(CHECKPOINT.reads(4) && !CHECKPOINT.reads(3) && !CHECKPOINT.reads(6));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Format {
@@ -60,20 +54,18 @@ pub struct Format {
     pub version: u32,
     /// The oldest version this build reads; defaults to `version`.
     pub oldest: u32,
-    /// The first version framed with CRC-32C; defaults to 0 (all of them).
-    pub crc32c_from: u32,
 }
 
 impl Format {
-    /// A kind of file of which this build reads and writes only `version`, with CRC-32C.
+    /// A kind of file of which this build reads and writes only `version`.
     ///
     /// ```
     /// let f = fmsr_core::persist::Format::new(b"EXAMPLE\0", 2);
-    /// assert_eq!((f.oldest, f.crc32c_from), (2, 0));
+    /// assert_eq!(f.oldest, 2);
     /// ```
     #[must_use]
     pub const fn new(magic: &'static [u8; 8], version: u32) -> Self {
-        Self { magic, version, oldest: version, crc32c_from: 0 }
+        Self { magic, version, oldest: version }
     }
 
     /// Also reads the versions from `oldest` on, whose body is the same.
@@ -87,18 +79,6 @@ impl Format {
         Self { oldest, ..self }
     }
 
-    /// Versions before `version` carry FNV-1a.
-    ///
-    /// ```
-    /// use fmsr_core::persist::{Checksum, Format};
-    /// let f = Format::new(b"EXAMPLE\0", 2).crc32c_since(2);
-    /// assert_eq!(f.checksum(1), Checksum::Fnv1a);
-    /// ```
-    #[must_use]
-    pub const fn crc32c_since(self, version: u32) -> Self {
-        Self { crc32c_from: version, ..self }
-    }
-
     /// Whether this build reads files of `version`.
     ///
     /// ```
@@ -109,62 +89,22 @@ impl Format {
         self.oldest <= version && version <= self.version
     }
 
-    /// The checksum of files of `version`.
-    ///
-    /// ```
-    /// use fmsr_core::persist::{Checksum, Format};
-    /// assert_eq!(Format::new(b"EXAMPLE\0", 1).checksum(1), Checksum::Crc32c);
-    /// ```
-    #[must_use]
-    pub const fn checksum(&self, version: u32) -> Checksum {
-        Checksum::of_version(version, self.crc32c_from)
-    }
-
     /// The magic number as text, for errors.
     fn name(&self) -> String {
         self.magic.iter().take_while(|&&b| b != 0).map(|&b| char::from(b)).collect()
     }
 }
 
-/// The checksum in a file's header.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Checksum {
-    /// FNV-1a, 64 bit: files written before the switch to CRC-32C.
-    Fnv1a,
-    /// CRC-32C (Castagnoli), zero-extended to 64 bits.
-    Crc32c,
-}
-
-impl Checksum {
-    /// CRC-32C from version `crc32c_from` on, FNV-1a before.
-    ///
-    /// ```
-    /// use fmsr_core::persist::Checksum;
-    /// assert_eq!(Checksum::of_version(3, 4), Checksum::Fnv1a);
-    /// assert_eq!(Checksum::of_version(4, 4), Checksum::Crc32c);
-    /// ```
-    #[must_use]
-    pub const fn of_version(version: u32, crc32c_from: u32) -> Self {
-        if version >= crc32c_from { Self::Crc32c } else { Self::Fnv1a }
-    }
-
-    /// The checksum of `bytes`, as the header stores it.
-    ///
-    /// ```
-    /// use fmsr_core::persist::Checksum;
-    /// assert_eq!(Checksum::Fnv1a.of(b""), 0xcbf2_9ce4_8422_2325);
-    /// // The CRC-32C check value.
-    /// assert_eq!(Checksum::Crc32c.of(b"123456789"), 0xE306_9283);
-    /// ```
-    #[must_use]
-    pub fn of(self, bytes: &[u8]) -> u64 {
-        match self {
-            Self::Fnv1a => {
-                bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
-            }
-            Self::Crc32c => u64::from(crc32c::crc32c(bytes)),
-        }
-    }
+/// The checksum of a body as a header stores it: CRC-32C (Castagnoli),
+/// zero-extended to 64 bits.
+///
+/// ```
+/// // The CRC-32C check value.
+/// assert_eq!(fmsr_core::persist::checksum(b"123456789"), 0xE306_9283);
+/// ```
+#[must_use]
+pub fn checksum(bytes: &[u8]) -> u64 {
+    u64::from(crc32c::crc32c(bytes))
 }
 
 /// Why bytes could not be written or read back.
@@ -219,7 +159,7 @@ pub fn encode<T: Serialize + ?Sized>(format: &Format, value: &T) -> Result<Vec<u
     let mut out = Vec::with_capacity(body.len() + HEADER_LEN);
     out.extend_from_slice(format.magic);
     out.extend_from_slice(&format.version.to_le_bytes());
-    out.extend_from_slice(&format.checksum(format.version).of(&body).to_le_bytes());
+    out.extend_from_slice(&checksum(&body).to_le_bytes());
     out.extend_from_slice(&body);
     Ok(out)
 }
@@ -251,7 +191,7 @@ pub fn decode<T: DeserializeOwned>(format: &Format, bytes: &[u8]) -> Result<T, F
     }
     let (header, body) = bytes.split_at(HEADER_LEN);
     let stored = u64::from_le_bytes(header[12..20].try_into().expect("a header holds 8 checksum bytes"));
-    if format.checksum(found).of(body) != stored {
+    if checksum(body) != stored {
         return Err(FormatError::Checksum);
     }
     postcard::from_bytes(body).map_err(|e| FormatError::Body(e.to_string()))
@@ -293,13 +233,13 @@ mod tests {
 
     use super::*;
 
-    const TEST: Format = Format::new(b"TESTFILE", 3).reads_from(2).crc32c_since(3);
+    const TEST: Format = Format::new(b"TESTFILE", 3).reads_from(2);
 
-    /// A file of `version` framed by hand with `checksum`, as older builds wrote it.
-    fn framed(version: u32, checksum: Checksum, body: &[u8]) -> Vec<u8> {
+    /// A file of `version` framed by hand.
+    fn framed(version: u32, body: &[u8]) -> Vec<u8> {
         let mut out = TEST.magic.to_vec();
         out.extend_from_slice(&version.to_le_bytes());
-        out.extend_from_slice(&checksum.of(body).to_le_bytes());
+        out.extend_from_slice(&checksum(body).to_le_bytes());
         out.extend_from_slice(body);
         out
     }
@@ -320,28 +260,25 @@ mod tests {
             prop_assert!(decode::<Vec<f32>>(&TEST, &good[..cut % good.len()]).is_err());
         }
 
-        // Guards the switch of checksum: a file written before it (FNV-1a,
-        // an older version) reads back as it did, and the same body under
-        // the other checksum is refused.
+        // Guards the versions a format reads: an older one it names reads
+        // back as the current one does.
         #[test]
-        fn older_versions_keep_their_checksum(values in proptest::collection::vec(any::<f32>(), 0..64)) {
+        fn older_versions_read_back(values in proptest::collection::vec(any::<f32>(), 0..64)) {
             let body = postcard::to_stdvec(&values).unwrap();
-            let back: Vec<f32> = decode(&TEST, &framed(2, Checksum::Fnv1a, &body)).unwrap();
+            let back: Vec<f32> = decode(&TEST, &framed(2, &body)).unwrap();
             prop_assert_eq!(back.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
                             values.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
-            prop_assert_eq!(encode(&TEST, &values).unwrap(), framed(3, Checksum::Crc32c, &body));
-            prop_assert_eq!(decode::<Vec<f32>>(&TEST, &framed(2, Checksum::Crc32c, &body)), Err(FormatError::Checksum));
-            prop_assert_eq!(decode::<Vec<f32>>(&TEST, &framed(3, Checksum::Fnv1a, &body)), Err(FormatError::Checksum));
+            prop_assert_eq!(encode(&TEST, &values).unwrap(), framed(3, &body));
         }
     }
 
     #[test]
     fn versions_outside_the_range_say_what_to_do() {
         let body = postcard::to_stdvec(&1u8).unwrap();
-        let old = decode::<u8>(&TEST, &framed(1, Checksum::Fnv1a, &body)).unwrap_err();
+        let old = decode::<u8>(&TEST, &framed(1, &body)).unwrap_err();
         assert_eq!(old, FormatError::Version { found: 1, oldest: 2, newest: 3 });
         assert!(old.to_string().contains("read it with the fmsr that wrote it"), "{old}");
-        let new = decode::<u8>(&TEST, &framed(4, Checksum::Crc32c, &body)).unwrap_err();
+        let new = decode::<u8>(&TEST, &framed(4, &body)).unwrap_err();
         assert!(new.to_string().contains("update fmsr"), "{new}");
         assert!(matches!(decode::<u8>(&TEST, b"TESTFILE"), Err(FormatError::Magic { .. })));
     }

@@ -27,9 +27,8 @@ use crate::error::CoreError;
 use crate::persist;
 use crate::replay::Episode;
 
-/// Version 2: CRC-32C; version 1 (the same body with FNV-1a) is still read,
-/// so a log may hold segments of both.
-const FORMAT: persist::Format = persist::Format::new(b"FMSRSEGM", 2).reads_from(1).crc32c_since(2);
+/// Version 2 (CRC-32C).
+const FORMAT: persist::Format = persist::Format::new(b"FMSRSEGM", 2);
 const EXTENSION: &str = "seg";
 
 /// One segment: consecutive episodes from store index `first`.

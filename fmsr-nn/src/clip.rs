@@ -50,7 +50,7 @@ mod tests {
 
     fn rows(t: Tensor<3>) -> Vec<Vec<f32>> {
         let [a, ..] = t.dims();
-        let v = t.into_data().to_vec::<f32>().unwrap();
+        let v = t.into_data().try_to_vec::<f32>().unwrap();
         v.chunks(v.len() / a).map(<[f32]>::to_vec).collect()
     }
 

@@ -170,18 +170,4 @@ impl UpdateRule for MasacRule {
         self.state = state;
         Ok(())
     }
-
-    /// Format 4 kept the log temperatures, then each agent's Adam state `(t, m, v)`.
-    fn state_from_values(&self, values: &[f64], agents: usize) -> Result<Option<RuleState>, NnError> {
-        if values.len() != 4 * agents {
-            return Err(NnError::StateMismatch {
-                what: "temperature state".into(),
-                expected: (4 * agents).to_string(),
-                found: values.len().to_string(),
-            });
-        }
-        let (log_alpha, adam) = values.split_at(agents);
-        let alpha_adam = adam.chunks_exact(3).map(|c| ScalarAdam { t: c[0] as u64, m: c[1], v: c[2] }).collect();
-        RuleState::encode(1, &MasacState { log_alpha: log_alpha.to_vec(), alpha_adam }).map(Some)
-    }
 }

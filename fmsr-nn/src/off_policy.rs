@@ -30,7 +30,7 @@ use fmsr_core::replay::Episode;
 use crate::config::CriticView;
 use crate::error::NnError;
 use crate::learner::{BatchTensors, Learner, LearnerParts};
-use crate::state::{RuleState, SavedRule};
+use crate::state::RuleState;
 
 /// What distinguishes one off-policy algorithm; see the [module docs](self).
 ///
@@ -101,22 +101,6 @@ pub trait UpdateRule: std::fmt::Debug + Clone + Send + 'static {
                 found: format!("version {}, {} bytes", s.version, s.bytes.len()),
             }),
         }
-    }
-
-    /// The state of a format-4 learner state, which kept it as a list of
-    /// values (only the crate's MASAC had any).
-    ///
-    /// # Errors
-    /// [`NnError::StateMismatch`] for values that do not fit.
-    fn state_from_values(&self, values: &[f64], _agents: usize) -> Result<Option<RuleState>, NnError> {
-        if values.is_empty() {
-            return Ok(None);
-        }
-        Err(NnError::StateMismatch {
-            what: format!("{} state", Self::NAME),
-            expected: "no values".into(),
-            found: values.len().to_string(),
-        })
     }
 }
 
@@ -310,11 +294,7 @@ impl<R: UpdateRule> OffPolicy<R> {
     /// targets and optimiser moments may be absent ([`crate::rescue_state`]).
     fn load_learner(&mut self, bytes: &[u8], thinned: bool) -> Result<(), NnError> {
         let (rule, agents) = (&self.rule, self.learner.num_agents());
-        let restored = self.learner.load(R::NAME, bytes, thinned, |saved| {
-            let state = match saved {
-                SavedRule::Typed(state) => state,
-                SavedRule::Values(values) => rule.state_from_values(&values, agents)?,
-            };
+        let restored = self.learner.load(R::NAME, bytes, thinned, |state| {
             let mut restored = rule.clone();
             restored.restore(state.as_ref(), agents)?;
             Ok(restored)

@@ -75,16 +75,11 @@ impl RuleState {
 
 const MAGIC: &[u8; 8] = b"FMSRNNST";
 
-/// The version of [`LearnerState`]'s layout: 7 since the update rule's own
-/// state is an optional versioned record ([`RuleState`]: absent for a rule
-/// without state). 6 (CRC-32C) and 5 (the same body with FNV-1a) kept it as
-/// the postcard bytes of the rule's typed state, empty for a rule without
-/// any; they are read as version 1 of that state. 4 kept it as a list of
-/// values, and version-4 states are still read (the rule converts the
-/// values). 4 began with the agents' networks stacked in groups, each group
-/// with one optimiser record per kind; states of version 3 (one optimiser
-/// record per agent) are refused with [`NnError::CorruptState`] naming the
-/// versions this build reads.
+/// The version of [`LearnerState`]'s layout: 7, the update rule's own state
+/// an optional versioned record ([`RuleState`]: absent for a rule without
+/// state), the agents' networks stacked in groups, each group with one
+/// optimiser record per kind. States of other versions are refused with
+/// [`NnError::CorruptState`] naming the version this build reads.
 const STATE_FORMAT: u32 = 7;
 
 /// How a state is framed: [`fmsr_core::persist`]'s header (magic, version,
@@ -95,54 +90,26 @@ struct Framing {
 }
 
 /// The whole learner ([`LearnerState`]).
-const LEARNER: Framing =
-    Framing { format: persist::Format::new(MAGIC, STATE_FORMAT).crc32c_since(6), what: "learner state" };
+const LEARNER: Framing = Framing { format: persist::Format::new(MAGIC, STATE_FORMAT), what: "learner state" };
 
-/// The whole learner as formats 6 and 5 wrote it (the rule's state as postcard bytes).
-const LEARNER_V6: Framing =
-    Framing { format: persist::Format::new(MAGIC, 6).reads_from(5).crc32c_since(6), what: "learner state (format 6)" };
-
-/// The whole learner as format 4 wrote it (the rule's state as values, FNV-1a).
-const LEARNER_V4: Framing =
-    Framing { format: persist::Format::new(MAGIC, 4).crc32c_since(6), what: "learner state (format 4)" };
-
-/// The update rule's own state as a saved learner holds it.
-pub(crate) enum SavedRule {
-    /// Formats 5 on: a record, or none.
-    Typed(Option<RuleState>),
-    /// Format 4: a list of values.
-    Values(Vec<f64>),
-}
-
-/// A learner state of format 7, 6 or 5, or of format 4 with its rule state as values.
-fn decode_learner(bytes: &[u8]) -> Result<(LearnerBody, SavedRule), NnError> {
+/// A learner state: its body and the update rule's own state.
+fn decode_learner(bytes: &[u8]) -> Result<(LearnerBody, Option<RuleState>), NnError> {
     if half::is_half(bytes) {
         let state = half::unpack(bytes)?;
-        return Ok((state.learner, SavedRule::Typed(state.rule)));
+        return Ok((state.learner, state.rule));
     }
     match persist::decode::<LearnerState>(&LEARNER.format, bytes) {
-        Ok(v7) => Ok((v7.learner, SavedRule::Typed(v7.rule))),
-        Err(FormatError::Version { found: 4, .. }) => {
-            let v4: LearnerStateOf<Vec<f64>> = decode(&LEARNER_V4, bytes)?;
-            Ok((v4.learner, SavedRule::Values(v4.rule)))
-        }
-        Err(FormatError::Version { found: 5 | 6, .. }) => {
-            let v6: LearnerStateOf<Vec<u8>> = decode(&LEARNER_V6, bytes)?;
-            let rule = (!v6.rule.is_empty()).then_some(RuleState { version: 1, bytes: v6.rule });
-            Ok((v6.learner, SavedRule::Typed(rule)))
-        }
+        Ok(state) => Ok((state.learner, state.rule)),
         Err(FormatError::Version { found, .. }) => Err(NnError::CorruptState {
             offset: 8,
-            reason: format!("learner state of format {found}; this build reads formats 4 to {STATE_FORMAT}"),
+            reason: format!("learner state of format {found}; this build reads format {STATE_FORMAT}"),
         }),
-        Err(_) => decode::<LearnerState>(&LEARNER, bytes).map(|v7| (v7.learner, SavedRule::Typed(v7.rule))),
+        Err(_) => decode::<LearnerState>(&LEARNER, bytes).map(|state| (state.learner, state.rule)),
     }
 }
 
-/// The acting half ([`PolicyState`]): version 2 (CRC-32C); version 1, the
-/// same body with FNV-1a, is still read.
-const POLICY: Framing =
-    Framing { format: persist::Format::new(b"FMSRNNPO", 2).reads_from(1).crc32c_since(2), what: "policy state" };
+/// The acting half ([`PolicyState`]): version 2.
+const POLICY: Framing = Framing { format: persist::Format::new(b"FMSRNNPO", 2), what: "policy state" };
 
 /// The header of [`fmsr_core::persist`], then the postcard body.
 fn encode<T: Serialize>(framing: &Framing, value: &T) -> Result<Vec<u8>, NnError> {
@@ -206,8 +173,8 @@ impl Learner {
         encode(&LEARNER, &LearnerState { learner, rule })
     }
 
-    /// Restores a state written by [`Learner::save`] (format 7), by formats 6
-    /// and 5 or by format 4. `rule` turns the saved rule state into the rule's and checks it
+    /// Restores a state written by [`Learner::save`]. `rule` turns the saved
+    /// rule state into the rule's and checks it
     /// before anything of this learner changes; its result is returned. With
     /// `thinned`, a state of [`crate::rescue_state`]: absent targets are
     /// restored as the online networks, absent optimiser moments as fresh ones.
@@ -216,7 +183,7 @@ impl Learner {
         algorithm: &str,
         bytes: &[u8],
         thinned: bool,
-        rule: impl FnOnce(SavedRule) -> Result<S, NnError>,
+        rule: impl FnOnce(Option<RuleState>) -> Result<S, NnError>,
     ) -> Result<S, NnError> {
         let (mut state, saved) = decode_learner(bytes)?;
         if thinned {
@@ -378,18 +345,11 @@ struct AgentState {
     actor_norm: Normalizer,
 }
 
-/// A learner state of format 7.
-type LearnerState = LearnerStateOf<Option<RuleState>>;
-
-/// The layout of formats 4 to 7, which differ only in the rule's state, the
-/// last field: values (`R = Vec<f64>`, 4), postcard bytes (`Vec<u8>`, 5 and
-/// 6) or an optional record (7).
-/// postcard writes a nested struct as its fields in order, so this is the
-/// flat layout format 4 wrote.
+/// A learner state of format 7: its body, then the rule's own state.
 #[derive(Serialize, Deserialize)]
-struct LearnerStateOf<R> {
+struct LearnerState {
     learner: LearnerBody,
-    rule: R,
+    rule: Option<RuleState>,
 }
 
 /// Everything of a learner state but the update rule's own state.
@@ -476,13 +436,7 @@ impl RescueLevel {
 /// [`NnError::CorruptState`] when `learner_state` is not a learner state of
 /// this build; [`NnError::InvalidConfig`] at `Half` for a parameter beyond `f16`'s range.
 pub fn rescue_state(learner_state: &[u8], level: RescueLevel) -> Result<Vec<u8>, NnError> {
-    let (mut body, saved) = decode_learner(learner_state)?;
-    let SavedRule::Typed(rule) = saved else {
-        return Err(NnError::CorruptState {
-            offset: 0,
-            reason: "a format-4 learner state: resume it once first".into(),
-        });
-    };
+    let (mut body, rule) = decode_learner(learner_state)?;
     body.replay = None;
     if level != RescueLevel::Full {
         body.actor_optim.iter_mut().chain(&mut body.critic_optim).for_each(Vec::clear);

@@ -15,6 +15,5 @@ mod save_state;
 mod shapes;
 mod shared_critics;
 mod sharing;
-mod state_v4;
 mod teammates;
 mod user_sac;

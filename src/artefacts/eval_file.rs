@@ -41,24 +41,15 @@ pub struct EpisodeTrace {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SuccessRule {
-    /// Final rotation error under the threshold, whether or not the object
-    /// was dropped: evaluations written before the turned-and-held rule (CHANGELOG).
-    Reached,
     /// Final rotation error under the threshold and never dropped.
     ReachedAndHeld,
 }
 
 impl SuccessRule {
-    /// The rule of files that do not name one: the old one.
-    fn legacy() -> Self {
-        Self::Reached
-    }
-
     /// In words, for tables.
     #[must_use]
     pub fn describe(self) -> &'static str {
         match self {
-            Self::Reached => "old definition: drops counted as successes when the final angle was within the threshold",
             Self::ReachedAndHeld => "turned and held: final angle within the threshold, never dropped",
         }
     }
@@ -179,17 +170,13 @@ pub struct EvalReport {
     pub epochs: usize,
     /// Test episodes.
     pub episodes: usize,
-    /// Which episodes were played (absent in older files: the test set).
-    #[serde(default)]
+    /// Which episodes were played.
     pub set: EpisodeSet,
     /// The success threshold (rad).
     pub threshold: f32,
-    /// What counted as a success (absent in older files: [`SuccessRule::Reached`]).
-    #[serde(default = "SuccessRule::legacy")]
+    /// What counted as a success.
     pub success_rule: SuccessRule,
-    /// The goal distance of the threshold (absent in files written before
-    /// the full-angle task: [`GoalDistance::Yaw`], the only one then).
-    #[serde(default = "legacy_distance")]
+    /// The goal distance of the threshold.
     pub goal_distance: GoalDistance,
     /// The episodes played by a hand that holds still (absent in files
     /// older than the full-angle task, whose chance level is estimated from the
@@ -206,14 +193,8 @@ pub struct EvalReport {
     pub failures: FailureRow,
     /// Per-episode grasp measures.
     pub episode_summaries: Vec<EpisodeSummary>,
-    /// Every episode: seed, errors, drop, outcome, contacts (absent in older files).
-    #[serde(default)]
+    /// Every episode: seed, errors, drop, outcome, contacts.
     pub records: Vec<EpisodeRecord>,
-    /// Goal distance of each episode after the reset (rad): files of older
-    /// versions only, whose episodes have no [`EpisodeRecord`] (their
-    /// `final_distances` are not read).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub initial_distances: Vec<f32>,
     /// The per-step series of the first test episode.
     pub trace: EpisodeTrace,
     /// The precision of the actors that played (absent: `full`, the only one
@@ -226,11 +207,6 @@ pub struct EvalReport {
 
 fn is_full(p: &PolicyPrecision) -> bool {
     *p == PolicyPrecision::Full
-}
-
-/// The distance of evaluations that do not name one.
-fn legacy_distance() -> GoalDistance {
-    GoalDistance::Yaw
 }
 
 fn cell(x: Option<MeanStd>, scale: f64, precision: usize) -> String {
@@ -318,23 +294,16 @@ impl EvalReport {
         Interval::wilson(self.outcomes.successes, self.outcomes.episodes)
     }
 
-    /// The success cell of the tables: `32% [24, 42]`, with `*` for the old
-    /// definition ([`SuccessRule::Reached`]).
+    /// The success cell of the tables: `32% [24, 42]`.
     #[must_use]
     pub fn success_cell(&self) -> String {
-        let mark = if self.success_rule == SuccessRule::Reached { "*" } else { "" };
-        self.success_interval().map_or_else(|| "n/a".into(), |i| format!("{}{mark}", i.percent()))
+        self.success_interval().map_or_else(|| "n/a".into(), |i| i.percent())
     }
 
-    /// Each episode's rotation error after the reset (rad): from the records,
-    /// or the list of older files.
+    /// Each episode's rotation error after the reset (rad).
     #[must_use]
     pub fn initial_errors(&self) -> Vec<f32> {
-        if self.records.is_empty() {
-            self.initial_distances.clone()
-        } else {
-            self.records.iter().map(|r| r.initial_error).collect()
-        }
+        self.records.iter().map(|r| r.initial_error).collect()
     }
 
     /// The success of a hand that holds still on these episodes, with its
@@ -473,9 +442,6 @@ impl EvalReport {
                 self.outcomes.successes
             );
         }
-        if self.success_rule == SuccessRule::Reached {
-            let _ = writeln!(out, "* {}.", self.success_rule.describe());
-        }
         out
     }
 }
@@ -548,7 +514,6 @@ mod tests {
             failures: counts.row(),
             episode_summaries: Vec::new(),
             records,
-            initial_distances: Vec::new(),
             trace: EpisodeTrace::default(),
             precision: PolicyPrecision::Full,
             seconds: 0.0,
@@ -568,15 +533,16 @@ mod tests {
         let e = report(SuccessRule::ReachedAndHeld);
         assert_eq!(e.table2_row(), "| egg | Dense | 100 | 68 | 60 | 88.2% | 8 | 11.8% |\n");
         assert_eq!(e.success_cell(), "32% [24, 42]");
-        assert_eq!(report(SuccessRule::Reached).success_cell(), "32% [24, 42]*");
         assert_eq!(e.table1_row(), "| egg | Dense | 32% [24, 42] | n/a | n/a | n/a | n/a | n/a | n/a |\n");
         assert!(e.cross_engine_cells("mujoco").ends_with("| 32% [24, 42] | n/a | n/a | n/a | n/a | n/a | n/a | 11.8%"));
         let still = e.still_success().unwrap();
         assert_eq!(still, Interval::wilson(2, 100).unwrap());
         assert_eq!(e.initial_errors().len(), 100);
         assert!(e.against_chance().contains("test success 32% [24, 42] against 2% ["), "{}", e.against_chance());
-        // Files of older versions: the chance level from their list of initial distances.
-        let old = EvalReport { records: Vec::new(), initial_distances: vec![0.39, 0.4, 0.41, 0.0], ..e };
+        // Files older than the simulated baseline: the chance level from the episodes' initial distances.
+        let mut records = e.records[..4].to_vec();
+        records.iter_mut().zip([0.39, 0.4, 0.41, 0.0]).for_each(|(r, d)| r.initial_error = d);
+        let old = EvalReport { records, still: None, ..e };
         assert_eq!(old.still_success(), Interval::wilson(2, 4));
     }
 

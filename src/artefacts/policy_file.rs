@@ -37,12 +37,11 @@ use crate::provenance::Provenance;
 use fmsr_envs::shadow_hand::GoalDistance;
 use fmsr_nn::PolicyPrecision;
 
-/// The policy file format this build writes: 2, with CRC-32C. Version 1 (the
-/// same body with FNV-1a) is still read.
+/// The policy file format this build writes and reads: 2 (CRC-32C).
 pub const POLICY_FILE_VERSION: u32 = 2;
 
 /// The framing of a policy file.
-const FORMAT: persist::Format = persist::Format::new(b"FMSRPLCY", POLICY_FILE_VERSION).reads_from(1).crc32c_since(2);
+const FORMAT: persist::Format = persist::Format::new(b"FMSRPLCY", POLICY_FILE_VERSION);
 
 /// The name of a policy file inside a directory: `fmsr eval DIR` reads
 /// `DIR/policy.fmsr` when `DIR` holds no run.

@@ -465,14 +465,6 @@ fn compare_with_carried(file: &PolicyFile, path: &std::path::Path, summary: &cra
                 recorded.success_cell()
             );
         }
-        Some(recorded) if recorded.success_rule != summary.success_rule => println!(
-            "{}: the file carries an evaluation under the old definition of success ({}: {}); this one counts a drop as a failure \
-             (`fmsr eval {} --record` writes it into the file)",
-            path.display(),
-            recorded.success_cell(),
-            recorded.success_rule.describe(),
-            path.display()
-        ),
         Some(recorded) => println!(
             "{}: differs from the evaluation the file carries ({} now, {} recorded over {} episodes)",
             path.display(),

@@ -75,11 +75,14 @@ fn shadow_weight_and_sharing_changes_are_labelled_apart() {
     let mut critics = method.clone();
     critics.sharing.get_or_insert_with(Default::default).target = fmsr_core::sharing::ShareTarget::Both;
     assert_eq!(critics.label(), "Dense+FMSR+IS, IS on actors and critics");
-    // A saved run of the yaw-only task (its config names no distance) is another task.
-    let yaw =
-        ExperimentConfig::from_saved_toml(&method.to_toml().unwrap().replace("goal_distance = \"full\"\n", ""), &root)
-            .unwrap();
-    assert_eq!(yaw.label(), "Dense+FMSR+IS, yaw distance");
+    // A saved run of the yaw-only task is another task; a saved config that
+    // names no distance is refused, naming the key.
+    let saved = method.to_toml().unwrap();
+    let yaw = saved.replace("goal_distance = \"full\"", "goal_distance = \"yaw\"");
+    assert_eq!(ExperimentConfig::from_saved_toml(&yaw, &root).unwrap().label(), "Dense+FMSR+IS, yaw distance");
+    let none = saved.replace("goal_distance = \"full\"\n", "");
+    let err = ExperimentConfig::from_saved_toml(&none, &root).unwrap_err().to_string();
+    assert!(err.contains("env.goal_distance"), "{err}");
     // Dense+FMSR neither shares nor changes its label for sharing's defaults.
     let fmsr = ExperimentConfig::load(&root.join("egg_dense_fmsr.toml")).unwrap();
     assert_eq!(fmsr.label(), "Dense+FMSR");

@@ -442,29 +442,31 @@ impl ExperimentConfig {
         Ok(config.with_sections_written())
     }
 
-    /// Parses the resolved experiment of a saved run or policy file. A saved
-    /// experiment names every setting of `[env]`; one that does not name
-    /// `env.goal_distance` is older than the full-angle task, when the only
-    /// distance was the yaw error, and is read with `goal_distance = "yaw"`,
-    /// so that resuming or evaluating it reproduces its records. A user's
-    /// experiment file is read with [`Self::from_toml`], where the default is
-    /// the full angle.
+    /// Parses the resolved experiment of a saved run or policy file, which
+    /// names every setting: a Shadow Hand experiment that does not name
+    /// `env.goal_distance` is refused (the default of a user's file, read
+    /// with [`Self::from_toml`], has changed before, and would change what
+    /// its records mean).
     ///
     /// # Errors
     /// As [`Self::from_toml`].
     pub fn from_saved_toml(text: &str, path: &Path) -> Result<Self, ExperimentError> {
         let parse_err = |message: String| ExperimentError::Parse { path: path.to_path_buf(), message };
-        let mut value: toml::Table = toml::from_str(text).map_err(|e| parse_err(e.to_string()))?;
+        let value: toml::Table = toml::from_str(text).map_err(|e| parse_err(e.to_string()))?;
         if value.get("task").and_then(toml::Value::as_str).is_some_and(|t| t != SHADOW_HAND) {
             return Self::from_toml(text, path);
         }
-        let env = value.entry("env").or_insert_with(|| toml::Value::Table(toml::Table::new()));
-        let env = env.as_table_mut().ok_or_else(|| parse_err("`env` must be a table".into()))?;
-        if !env.contains_key("goal_distance") {
-            env.insert("goal_distance".into(), toml::Value::String(GoalDistance::Yaw.key().into()));
+        if lookup(&value, &["env", "goal_distance"]).is_none() {
+            return Err(ExperimentError::Config {
+                key: "env.goal_distance".into(),
+                reason: format!(
+                    "{} names no goal distance; a saved experiment names every setting (write the one it \
+                     trained under, \"yaw\" for the records before the full-angle task)",
+                    path.display()
+                ),
+            });
         }
-        let text = toml::to_string(&value).map_err(|e| parse_err(e.to_string()))?;
-        Self::from_toml(&text, path)
+        Self::from_toml(text, path)
     }
 
     /// Reads and parses the resolved experiment of a saved run (`config.toml`),

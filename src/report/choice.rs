@@ -105,7 +105,7 @@ mod tests {
     fn eval(rate: f64, set: EpisodeSet) -> EvalReport {
         let json = serde_json::json!({
             "name": "r", "method": "Dense", "task": "egg", "engine": "rapier", "epochs": 1,
-            "episodes": 100, "set": set, "threshold": 0.4, "success_rule": "reached_and_held",
+            "episodes": 100, "set": set, "threshold": 0.4, "success_rule": "reached_and_held", "goal_distance": "full", "records": [],
             "success_rate": rate, "stability": null,
             "outcomes": {"episodes": 100, "successes": (rate * 100.0).round() as usize,
                 "incomplete": 100 - (rate * 100.0).round() as usize, "drop": 0},

@@ -412,7 +412,6 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
     let mut chosen_md = String::new();
     let mut differences = String::new();
     let mut missing_eval = Vec::new();
-    let mut old_rule = false;
     let mut distances = std::collections::BTreeSet::new();
     for (task, task_runs) in &by_task {
         let mut chosen = Vec::new();
@@ -422,7 +421,6 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
             if let Some((r, e, how)) = choice::choose(&candidates) {
                 table1.push_str(&e.table1_row());
                 table2.push_str(&e.table2_row());
-                old_rule |= e.success_rule == crate::artefacts::SuccessRule::Reached;
                 distances.insert(e.goal_distance.key());
                 let _ =
                     writeln!(chosen_md, "- {task}, {}: {} ({})", configuration.1, links.link(&r.dir), how.describe());
@@ -469,9 +467,6 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
             "\nSuccess counted by the goal distance: {} (`full`: the full angle between the orientations, `q` and `-q` one orientation; `gym`: gymnasium-robotics' `2 arccos(w)` over [0, 2 pi]; `yaw`: rotation about Z alone, the oldest records).",
             distances.into_iter().collect::<Vec<_>>().join(", ")
         );
-    }
-    if old_rule {
-        summary.push_str("\n\\* An evaluation written before success required the object held: drops within the threshold counted as successes. `fmsr eval` again gives today's number.\n");
     }
     let _ = write!(summary, "\nThe run standing for each configuration:\n\n{chosen_md}");
     if !differences.is_empty() {

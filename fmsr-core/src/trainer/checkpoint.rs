@@ -16,9 +16,9 @@ use crate::replay_log::ReplayLog;
 use crate::shadow::OccupancyEstimator;
 use crate::shadow::ShadowReward;
 
-/// Version 4: CRC-32C; version 3 (the same body with FNV-1a) is still read.
-/// Version 3 began the [`persist`] framing with the replay in the replay log.
-const FORMAT: persist::Format = persist::Format::new(b"FMSRCKPT", 4).reads_from(3).crc32c_since(4);
+/// Version 4 (CRC-32C; 3 began the [`persist`] framing with the replay in
+/// the replay log).
+const FORMAT: persist::Format = persist::Format::new(b"FMSRCKPT", 4);
 
 /// A checkpoint file: the trainer's part as JSON (the configuration's tagged
 /// enums need a self-describing format), the algorithm's as its own bytes.

@@ -17,7 +17,7 @@ use crate::policy::ActMode;
 use crate::shadow::{OccupancyEstimator, ShadowReward};
 
 /// The rescue point format (version 1, CRC-32C).
-const FORMAT: persist::Format = persist::Format::new(b"FMSRRESC", 1).crc32c_since(1);
+const FORMAT: persist::Format = persist::Format::new(b"FMSRRESC", 1);
 
 #[derive(Serialize, Deserialize)]
 struct RescueFile {
