@@ -259,7 +259,7 @@ pub fn matching_policies(dir: &Path, config: &ExperimentConfig) -> Vec<PathBuf> 
         Ok(f) => {
             f.config.env.object == config.env.object
                 && f.config.engine == config.engine
-                && f.config.label() == config.label()
+                && f.config.key() == config.key()
         }
         Err(e) => {
             log::warn!("skipping {}: {e}", p.display());

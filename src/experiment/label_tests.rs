@@ -2,7 +2,10 @@
 
 use std::path::Path;
 
-use super::{Engine, ExperimentConfig, ExperimentError, GoalDistance, Stack, TargetClip};
+use fmsr_envs::shadow_hand::GoalDistance;
+use fmsr_nn::TargetClip;
+
+use super::{Engine, ExperimentConfig, ExperimentError, Stack};
 
 // Guards the report's grouping: a single agent owning the whole hand is a
 // configuration of its own, never pooled with the paper's six-agent Sparse.

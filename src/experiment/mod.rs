@@ -59,13 +59,12 @@ use serde::{Deserialize, Serialize};
 use fmsr_core::method::Method;
 use fmsr_core::prelude::*;
 use fmsr_core::replay::ReplayConfig;
-use fmsr_core::shadow::ShadowConfig;
-use fmsr_core::sharing::{ShareMode, ShareTarget, SharingConfig};
-use fmsr_envs::shadow_hand::{GoalDistance, ShadowHandConfig};
+use fmsr_core::sharing::SharingConfig;
+use fmsr_envs::shadow_hand::ShadowHandConfig;
 
 pub use crate::error::ExperimentError;
 use fmsr_graph::Graph;
-use fmsr_nn::{ConfiguredRule, CriticTying, Device, DeviceSpec, NetworkConfig, NormalizerStats, TargetClip, Teammates};
+use fmsr_nn::{ConfiguredRule, CriticTying, Device, DeviceSpec, NetworkConfig, Teammates};
 
 use crate::algorithms;
 pub use crate::stack::Stack;
@@ -544,97 +543,11 @@ impl ExperimentConfig {
         Ok(())
     }
 
-    /// The configuration's name in tables and figures: the method's label (e.g.
-    /// `Dense+FMSR+IS`), followed by the number of agents when the hand is not
-    /// split into the paper's six (e.g. `Sparse, 1 agent`), and by
-    /// `current teammates` when the actors' loss takes the teammates' current
-    /// policies ([`Teammates::Current`]), `global actors`
-    /// ([`ActorView::Global`]) and `shared critic (trunk)`
-    /// ([`CriticTying`]); by the shadow rewards' `alpha` where it is not the
-    /// default 0.1 (e.g. `alpha 0.03`), and by information sharing's mode and
-    /// target where they are not the paper's parameters and actors (`IS on
-    /// gradients`, `IS on critics`, `IS on actors and critics`), so that an
-    /// ablation is never pooled with the method's runs; by `yaw distance` for
-    /// the task of the oldest records (success by the rotation
-    /// about Z alone, [`GoalDistance::Yaw`]), so that they are never pooled
-    /// with runs of the paper's task; by `paper stack` under
-    /// [`Stack::Paper`], and otherwise by `gym distance`, `HER target clip`
-    /// and `HER normaliser statistics` for each of its settings alone; and by the algorithm and the training
-    /// engine when they are not the paper's (MADDPG, rapier here), e.g. `Dense, MATD3, trained
-    /// on MuJoCo`, and by the task's name when it is not the Shadow Hand, so
-    /// that a report never pools runs of two algorithms, two engines or two
-    /// tasks as seeds of one configuration.
+    /// The configuration's name in tables and figures: its [`RunKey`] in
+    /// words (e.g. `Dense+FMSR+IS, alpha 0.03, trained on MuJoCo`).
     #[must_use]
     pub fn label(&self) -> String {
-        let mut label = match &self.env.agents {
-            Some(agents) if agents.len() != fmsr_envs::shadow_hand::HandAgent::paper().len() => {
-                let n = agents.len();
-                format!("{}, {n} agent{}", self.method.label(), if n == 1 { "" } else { "s" })
-            }
-            _ => self.method.label().into(),
-        };
-        // An algorithm this process has not registered (a saved run's,
-        // read where its crate is absent) is labelled by its name.
-        let algorithm = self.algorithm_entry().ok();
-        let teammates = algorithm.as_ref().and_then(|(entry, settings)| entry.teammates(settings).ok());
-        if teammates == Some(Teammates::Current) {
-            label.push_str(", current teammates");
-        }
-        if self.graph.actor_observation == ActorView::Global {
-            label.push_str(", global actors");
-        }
-        match (self.stack, self.env.goal_distance) {
-            (_, GoalDistance::Yaw) => label.push_str(", yaw distance"),
-            (Stack::Fmsr, GoalDistance::Gym) => label.push_str(", gym distance"),
-            _ => {}
-        }
-        if self.stack == Stack::Fmsr && self.networks.target_clip == TargetClip::HerBaselines {
-            label.push_str(", HER target clip");
-        }
-        if self.stack == Stack::Fmsr && self.networks.normalizer_stats == NormalizerStats::StoredEpisodes {
-            label.push_str(", HER normaliser statistics");
-        }
-        if self.stack == Stack::Paper {
-            label.push_str(", paper stack");
-        }
-        let shadow = &self.trainer.shadow;
-        if self.method.shadow() && shadow.alpha != ShadowConfig::default().alpha {
-            label.push_str(&format!(", alpha {}", shadow.alpha));
-        }
-        if self.method.sharing() {
-            let (mode, target) = self
-                .sharing
-                .as_ref()
-                .map_or_else(|| (ShareMode::default(), ShareTarget::default()), |s| (s.mode, s.target));
-            if mode == ShareMode::Gradients {
-                label.push_str(", IS on gradients");
-            }
-            match target {
-                ShareTarget::Actors => {}
-                ShareTarget::Critics => label.push_str(", IS on critics"),
-                ShareTarget::Both => label.push_str(", IS on actors and critics"),
-            }
-        }
-        match self.networks.critic {
-            CriticTying::PerAgent => {}
-            CriticTying::SharedTrunk => label.push_str(", shared critic trunk"),
-            CriticTying::Shared => label.push_str(", shared critic"),
-        }
-        match algorithm {
-            Some((entry, _)) => {
-                if let Some(name) = entry.label() {
-                    label.push_str(&format!(", {name}"));
-                }
-            }
-            None => label.push_str(&format!(", {}", self.algorithm.to_uppercase())),
-        }
-        if self.engine == Engine::Mujoco && self.is_shadow_hand() {
-            label.push_str(", trained on MuJoCo");
-        }
-        if !self.is_shadow_hand() {
-            label.push_str(&format!(", {}", self.task));
-        }
-        label
+        self.key().to_string()
     }
 
     /// Whether the task is the Shadow Hand (`task = "shadow_hand"`, the default).
@@ -772,5 +685,8 @@ impl ExperimentConfig {
     }
 }
 
+mod key;
 #[cfg(test)]
 mod label_tests;
+
+pub use key::{Distinction, RunKey};

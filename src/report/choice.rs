@@ -123,6 +123,7 @@ mod tests {
         RunRecord {
             dir: format!("runs/s{seed}").into(),
             label: config.label(),
+            policy_file: false,
             config,
             metrics: Vec::new(),
             eval: Some(eval(test, EpisodeSet::Test)),

@@ -34,7 +34,7 @@ pub mod choice;
 mod links;
 
 use crate::artefacts::{EvalReport, PolicyFile, RenderTarget, RunDir, Source, read_eval};
-use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError};
+use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError, RunKey};
 use links::RunLinks;
 
 /// One run as the report sees it.
@@ -56,9 +56,34 @@ pub struct RunRecord {
     /// Test episode 0 drawn by `fmsr render` on its own engine: the GIF and its frame strip.
     pub rendering: Option<(PathBuf, PathBuf)>,
     /// The configuration's label in the tables and figures
-    /// ([`ExperimentConfig::label`]; a policy file's adds `(policy file)`, so it
-    /// stands beside a run of the same configuration rather than as its seed).
+    /// ([`ExperimentConfig::label`]; a policy file's adds `(policy file)`).
     pub label: String,
+    /// Whether it is a policy file, which stands beside the runs of its
+    /// configuration rather than as their seed.
+    pub policy_file: bool,
+}
+
+/// A configuration of a report: a run's [`RunKey`], and whether it is a
+/// policy file (which stands beside the runs of its key, not as their seed).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Configuration {
+    /// The configuration's identity.
+    pub key: RunKey,
+    /// A policy file rather than a run.
+    pub policy_file: bool,
+}
+
+impl Configuration {
+    /// Its name in tables and figures.
+    #[must_use]
+    pub fn label(&self) -> String {
+        if self.policy_file { format!("{} (policy file)", self.key) } else { self.key.to_string() }
+    }
+
+    /// The order of the tables: the paper's methods, then the labels.
+    fn order(&self) -> (Option<usize>, String) {
+        (Method::ALL.iter().position(|m| *m == self.key.method), self.label())
+    }
 }
 
 impl RunRecord {
@@ -78,9 +103,8 @@ impl RunRecord {
             .map(|e| read_eval(&run.eval_json_on(e, config.engine)))
             .filter_map(Result::transpose)
             .collect::<Result<_, _>>()?;
-        let label = config.label();
         let target = RenderTarget::default_for(&run, 0, config.engine);
-        Ok(Self::assemble(dir, &target, config, metrics, [eval, validation], cross_evals, label))
+        Ok(Self::assemble(dir, &target, config, metrics, [eval, validation], cross_evals, false))
     }
 
     /// Reads a run directory or a policy file ([`Source::open`]); a policy
@@ -99,9 +123,8 @@ impl RunRecord {
                 let validation = file.eval_for(own, EpisodeSet::Validation).cloned();
                 let cross =
                     file.evals.iter().filter(|e| e.engine != own && e.set == EpisodeSet::Test).cloned().collect();
-                let label = format!("{} (policy file)", file.config.label());
                 let PolicyFile { config, metrics, .. } = *file;
-                Ok(Self::assemble(&path, &target, config, metrics, [eval, validation], cross, label))
+                Ok(Self::assemble(&path, &target, config, metrics, [eval, validation], cross, true))
             }
         }
     }
@@ -114,8 +137,9 @@ impl RunRecord {
         metrics: Vec<EpochStats>,
         [mut eval, mut validation]: [Option<EvalReport>; 2],
         mut cross_evals: Vec<EvalReport>,
-        label: String,
+        policy_file: bool,
     ) -> Self {
+        let label = Configuration { key: config.key(), policy_file }.label();
         // The configuration names the run in every table (files of older versions
         // carry only the method's label).
         for e in eval.iter_mut().chain(validation.iter_mut()).chain(cross_evals.iter_mut()) {
@@ -125,12 +149,13 @@ impl RunRecord {
             (RenderTarget::Gif(gif), Some(strip)) if gif.exists() && strip.exists() => Some((gif.clone(), strip)),
             _ => None,
         };
-        Self { dir: dir.to_path_buf(), config, metrics, eval, validation, cross_evals, rendering, label }
+        Self { dir: dir.to_path_buf(), config, metrics, eval, validation, cross_evals, rendering, label, policy_file }
     }
 
-    /// The configuration's method and label ([`ExperimentConfig::label`]).
-    fn configuration(&self) -> (Method, String) {
-        (self.config.method, self.label.clone())
+    /// The configuration it stands for.
+    #[must_use]
+    pub fn configuration(&self) -> Configuration {
+        Configuration { key: self.config.key(), policy_file: self.policy_file }
     }
 
     fn task(&self) -> String {
@@ -228,9 +253,9 @@ fn plot_err<E: std::fmt::Display>(path: &Path) -> impl Fn(E) -> ExperimentError 
 }
 
 /// The distinct configurations among `runs`, in the paper's method order.
-fn configurations(runs: &[&RunRecord]) -> Vec<(Method, String)> {
-    let mut out: Vec<(Method, String)> = runs.iter().map(|r| r.configuration()).collect();
-    out.sort_by_key(|(m, label)| (Method::ALL.iter().position(|x| x == m), label.clone()));
+fn configurations(runs: &[&RunRecord]) -> Vec<Configuration> {
+    let mut out: Vec<Configuration> = runs.iter().map(|r| r.configuration()).collect();
+    out.sort_by_key(Configuration::order);
     out.dedup();
     out
 }
@@ -238,8 +263,9 @@ fn configurations(runs: &[&RunRecord]) -> Vec<(Method, String)> {
 /// The colour of a configuration among `all`: its method's, darker for each
 /// further configuration of the same method (an ablation, another engine),
 /// so that every method keeps its hue and no two configurations share a colour.
-fn configuration_color(method: Method, label: &str, all: &[(Method, String)]) -> RGBColor {
-    let variant = all.iter().filter(|(m, _)| *m == method).position(|(_, l)| l == label).unwrap_or(0);
+fn configuration_color(c: &Configuration, all: &[Configuration]) -> RGBColor {
+    let method = c.key.method;
+    let variant = all.iter().filter(|o| o.key.method == method).position(|o| o == c).unwrap_or(0);
     let RGBColor(r, g, b) = method_color(method);
     let scale = 0.6f64.powi(i32::try_from(variant.min(4)).unwrap_or(4));
     let dim = |c: u8| (f64::from(c) * scale).round() as u8;
@@ -267,8 +293,8 @@ fn plot_learning_curves(task: &str, runs: &[&RunRecord], path: &Path) -> Result<
         .draw()
         .map_err(&err)?;
     let all = configurations(runs);
-    for (method, label) in all.clone() {
-        let seeds: Vec<&&RunRecord> = runs.iter().filter(|r| r.configuration() == (method, label.clone())).collect();
+    for c in &all {
+        let seeds: Vec<&&RunRecord> = runs.iter().filter(|r| r.configuration() == *c).collect();
         // Mean and spread over the runs that reached each epoch.
         let n = seeds.iter().map(|r| r.metrics.len()).max().unwrap_or(0);
         let at = |e: usize| seeds.iter().filter_map(|r| r.metrics.get(e).map(|m| m.success_rate)).collect::<Vec<_>>();
@@ -278,7 +304,7 @@ fn plot_learning_curves(task: &str, runs: &[&RunRecord], path: &Path) -> Result<
                 (e as f64, v.iter().sum::<f64>() / v.len() as f64)
             })
             .collect();
-        let color = configuration_color(method, &label, &all);
+        let color = configuration_color(c, &all);
         if seeds.len() > 1 {
             let upper = (0..n).map(|e| (e as f64, at(e).into_iter().fold(f64::MIN, f64::max)));
             let lower = (0..n).rev().map(|e| (e as f64, at(e).into_iter().fold(f64::MAX, f64::min)));
@@ -289,7 +315,7 @@ fn plot_learning_curves(task: &str, runs: &[&RunRecord], path: &Path) -> Result<
         chart
             .draw_series(LineSeries::new(mean, color.stroke_width(2)))
             .map_err(&err)?
-            .label(format!("{label} ({} run{})", seeds.len(), if seeds.len() == 1 { "" } else { "s" }))
+            .label(format!("{} ({} run{})", c.label(), seeds.len(), if seeds.len() == 1 { "" } else { "s" }))
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
     }
     chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(&err)?;
@@ -316,12 +342,11 @@ fn plot_time_domain(task: &str, best: &[(&RunRecord, &EvalReport)], path: &Path)
         ("active touch sensors", |e| e.trace.contacts.iter().map(|&c| c as f64).collect()),
         ("Q_DCC (mm)", |e| e.trace.q_dcc.iter().map(|d| d.map_or(f64::NAN, |d| d * 1e3)).collect()),
     ];
-    let mut all: Vec<(Method, String)> = best.iter().map(|(r, _)| r.configuration()).collect();
-    all.sort_by_key(|(m, label)| (Method::ALL.iter().position(|x| x == m), label.clone()));
+    let mut all: Vec<Configuration> = best.iter().map(|(r, _)| r.configuration()).collect();
+    all.sort_by_key(Configuration::order);
     all.dedup();
     for (area, (name, series)) in body.split_evenly((3, 2)).iter().zip(panels) {
-        let data: Vec<((Method, String), Vec<f64>)> =
-            best.iter().map(|(r, e)| (r.configuration(), series(e))).collect();
+        let data: Vec<(Configuration, Vec<f64>)> = best.iter().map(|(r, e)| (r.configuration(), series(e))).collect();
         let steps = data.iter().map(|(_, v)| v.len()).max().unwrap_or(1).max(2);
         let ymax = data.iter().flat_map(|(_, v)| v.iter().copied()).filter(|v| v.is_finite()).fold(0.0, f64::max);
         let ymax = if ymax > 0.0 { ymax * 1.05 } else { 1.0 };
@@ -333,13 +358,13 @@ fn plot_time_domain(task: &str, best: &[(&RunRecord, &EvalReport)], path: &Path)
             .build_cartesian_2d(0f64..(steps - 1) as f64, 0f64..ymax)
             .map_err(&err)?;
         chart.configure_mesh().x_desc("env step").draw().map_err(&err)?;
-        for ((method, label), values) in data {
-            let color = configuration_color(method, &label, &all);
+        for (c, values) in data {
+            let color = configuration_color(&c, &all);
             let points = values.iter().enumerate().filter(|(_, v)| v.is_finite()).map(|(i, &v)| (i as f64, v));
             chart
                 .draw_series(LineSeries::new(points, color.stroke_width(2)))
                 .map_err(&err)?
-                .label(label)
+                .label(c.label())
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
         }
         chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw().map_err(&err)?;
@@ -422,8 +447,13 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
                 table1.push_str(&e.table1_row());
                 table2.push_str(&e.table2_row());
                 distances.insert(e.goal_distance.key());
-                let _ =
-                    writeln!(chosen_md, "- {task}, {}: {} ({})", configuration.1, links.link(&r.dir), how.describe());
+                let _ = writeln!(
+                    chosen_md,
+                    "- {task}, {}: {} ({})",
+                    configuration.label(),
+                    links.link(&r.dir),
+                    how.describe()
+                );
                 chosen.push((r, e, how));
             }
         }
@@ -508,13 +538,15 @@ mod tests {
     // configuration now has a colour of its own in its method's hue.
     #[test]
     fn every_configuration_has_a_colour_of_its_own() {
-        let all: Vec<(Method, String)> = vec![
-            (Method::DenseFmsrIs, "Dense+FMSR+IS, trained on MuJoCo".into()),
-            (Method::DenseFmsrIs, "Dense+FMSR+IS, trained on MuJoCo, paper stack".into()),
-            (Method::Dense, "Dense, trained on MuJoCo".into()),
-            (Method::Sparse, "Sparse".into()),
+        use crate::experiment::Distinction::{PaperStack, TrainedOnMujoco};
+        let c = |method, distinctions| Configuration { key: RunKey { method, distinctions }, policy_file: false };
+        let all = vec![
+            c(Method::DenseFmsrIs, vec![TrainedOnMujoco]),
+            c(Method::DenseFmsrIs, vec![PaperStack, TrainedOnMujoco]),
+            c(Method::Dense, vec![TrainedOnMujoco]),
+            c(Method::Sparse, vec![]),
         ];
-        let colours: Vec<RGBColor> = all.iter().map(|(m, l)| configuration_color(*m, l, &all)).collect();
+        let colours: Vec<RGBColor> = all.iter().map(|c| configuration_color(c, &all)).collect();
         for (i, a) in colours.iter().enumerate() {
             for b in &colours[i + 1..] {
                 assert_ne!(a, b);
