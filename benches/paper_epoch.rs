@@ -41,7 +41,7 @@ fn time_cycles(cycles: usize, envs: usize, threads: usize, learner_threads: usiz
     config.trainer.threads = Some(threads);
     config.networks.threads = learner_threads;
     if let Ok(device) = std::env::var("FMSR_DEVICE") {
-        config.device = device;
+        config.device = device.parse().context("FMSR_DEVICE")?;
     }
     let engine = config.engine;
     let hands = (0..envs)

@@ -8,7 +8,7 @@ use fmsr_core::prelude::*;
 use fmsr_nn::{AnyLearner, LearnerParts};
 
 use crate::error::ExperimentError;
-use crate::experiment::{ExperimentConfig, parse_device};
+use crate::experiment::{ExperimentConfig, device_of};
 use crate::tasks::{self, Task};
 
 impl ExperimentConfig {
@@ -122,7 +122,7 @@ impl ExperimentConfig {
             LearnerParts::new(layout.clone(), networks, self.replay, trainer_config.gamma_for(spec.episode_len))
                 .with_sharing(sharing)
                 .with_communicator(Box::new(comm.clone()))
-                .with_device(parse_device(&self.device)?);
+                .with_device(device_of(self.device)?);
         let learner = learner(parts)?;
         let mut trainer_config = trainer_config;
         if envs.len() != trainer_config.worker_envs(comm.workers())? {

@@ -130,6 +130,21 @@ impl FromStr for DeviceSpec {
     }
 }
 
+/// Written as its name (`"cpu"`, `"wgpu:0"`, ...), as configs name it.
+impl serde::Serialize for DeviceSpec {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+/// Read from its name, refusing one that does not parse ([`DeviceSpec::from_str`]).
+impl<'de> serde::Deserialize<'de> for DeviceSpec {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        name.parse().map_err(serde::de::Error::custom)
+    }
+}
+
 impl DeviceSpec {
     /// The burn device, after checking that this build has its backend and
     /// this machine its adapter.

@@ -331,7 +331,7 @@ impl Source {
             Self::Run(dir) => dir.load_config(),
             Self::Policy { file, .. } => {
                 let mut config = file.config.clone();
-                "cpu".clone_into(&mut config.device);
+                config.device = fmsr_nn::DeviceSpec::Flex;
                 Ok(config)
             }
         }

@@ -90,7 +90,9 @@ fn resolve_config(args: &TrainArgs) -> Result<(ExperimentConfig, RunDir, bool)> 
         config.trainer.epochs = epochs;
     }
     if let Some(device) = &args.device {
-        config.device.clone_from(device);
+        config.device = device
+            .parse()
+            .map_err(|e: fmsr_nn::NnError| ExperimentError::Cli { arg: "--device", reason: e.to_string() })?;
     }
     config.validate()?;
     Ok((config, dir, resume))

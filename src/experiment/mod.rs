@@ -222,9 +222,11 @@ pub struct ExperimentConfig {
     pub engine: Engine,
     /// The burn device the networks live on: `"cpu"` (burn's `flex`, default),
     /// or with the `wgpu` / `vulkan` / `cuda` features a GPU such as `"wgpu:0"`,
-    /// `"vulkan:0"`, `"cuda:0"` or `"wgpu:cpu"` ([`parse_device`]).
+    /// `"vulkan:0"`, `"cuda:0"` or `"wgpu:cpu"`, parsed when the config is
+    /// read (a name that does not parse is refused there, naming the key) and
+    /// checked against this build and machine ([`device_of`]).
     #[serde(default = "default_device")]
-    pub device: String,
+    pub device: DeviceSpec,
     /// The Shadow Hand task (object, thresholds, features).
     #[serde(default)]
     pub env: ShadowHandConfig,
@@ -255,8 +257,8 @@ pub struct ExperimentConfig {
     pub eval: EvalConfig,
 }
 
-fn default_device() -> String {
-    "cpu".into()
+fn default_device() -> DeviceSpec {
+    DeviceSpec::Flex
 }
 
 fn default_task() -> String {
@@ -375,7 +377,16 @@ fn key_of(method: Method) -> String {
 /// not have, listing those it has.
 pub fn parse_device(device: &str) -> Result<Device, ExperimentError> {
     let invalid = |e: fmsr_nn::NnError| ExperimentError::Config { key: "device".into(), reason: e.to_string() };
-    device.parse::<DeviceSpec>().and_then(|d| d.device()).map_err(invalid)
+    device_of(device.parse::<DeviceSpec>().map_err(invalid)?)
+}
+
+/// The burn device of `device`, checking that this build has its backend
+/// and this machine its adapter.
+///
+/// # Errors
+/// [`ExperimentError::Config`] for key `device`, listing the devices there are.
+pub fn device_of(device: DeviceSpec) -> Result<Device, ExperimentError> {
+    device.device().map_err(|e| ExperimentError::Config { key: "device".into(), reason: e.to_string() })
 }
 
 impl ExperimentConfig {
@@ -520,7 +531,7 @@ impl ExperimentConfig {
         self.networks.validate()?;
         let (entry, settings) = self.algorithm_entry()?;
         entry.validate(&settings)?;
-        parse_device(&self.device)?;
+        device_of(self.device)?;
         if self.networks.critic == CriticTying::Shared && self.method.shadow() {
             return Err(ExperimentError::Config {
                 key: "networks.critic".into(),
