@@ -388,7 +388,7 @@ fn render_writes_a_gif_and_png_frames_of_a_test_episode() {
 fn bad_configs_are_rejected_naming_the_key() {
     let tmp = tempfile::tempdir().unwrap();
     type Edit = fn(String) -> String;
-    let cases: [(Edit, &str); 16] = [
+    let cases: [(Edit, &str); 17] = [
         (|t| t + "[run]\ncheckpoint_replay = false\n", "`run`"),
         (|t| t.replace("batch_size = 32", "batch_size = \"many\""), "batch_size"),
         (|t| t.replace("hidden = 32", "hiden = 32"), "networks.hiden"),
@@ -422,6 +422,9 @@ fn bad_configs_are_rejected_naming_the_key() {
         ),
         (|t| t + "[graph]\nedges = [[\"thumb\", \"pinky\"]]\n", "pinky"),
         (|t| t.replace("threshold = 0.4", "threshold = -1.0"), "eval.threshold"),
+        // Caught when the file is read, under its own key (it was once caught after
+        // the environment loaded, under `trainer.shadow.assignment`).
+        (|t| t.replace("alpha = 0.1", "alpha = -0.1"), "trainer.shadow.alpha"),
         (|t| t + "[[env.agents]]\nname = \"hand\"\nactuators = [\"WRJ1\", \"WRJ0\"]\n", "env.agents"),
         // A device this build does not have, and one that does not exist.
         (|t| format!("device = \"vulkan:0\"\n{t}"), "device `vulkan:0`"),

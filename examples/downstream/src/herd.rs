@@ -55,10 +55,10 @@ impl Herd {
     /// # Errors
     /// A speed or threshold that is not positive, episodes of no step.
     pub fn new(config: HerdConfig) -> Result<Self, HerdError> {
-        if !(config.speed > 0.0) {
+        if config.speed.is_nan() || config.speed <= 0.0 {
             return Err(HerdError::Config { key: "speed", reason: "must be positive" });
         }
-        if !(config.threshold > 0.0) {
+        if config.threshold.is_nan() || config.threshold <= 0.0 {
             return Err(HerdError::Config { key: "threshold", reason: "must be positive" });
         }
         let agents =

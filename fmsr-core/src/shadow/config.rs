@@ -49,6 +49,43 @@ impl Default for ShadowConfig {
 }
 
 impl ShadowConfig {
+    /// Checks the settings that do not need the environment, naming each by
+    /// its key in an experiment file (`trainer.shadow.*`).
+    ///
+    /// ```
+    /// use fmsr_core::shadow::ShadowConfig;
+    /// let err = ShadowConfig { alpha: -0.1, ..ShadowConfig::default() }.validate().unwrap_err();
+    /// assert!(err.to_string().contains("trainer.shadow.alpha"));
+    /// ```
+    ///
+    /// # Errors
+    /// [`CoreError::InvalidConfig`] for a negative or non-finite `alpha`, a
+    /// utility offset that is not positive, an averaging window of no episode
+    /// or a `beta` outside `(0, 1]`, a `max_scale` that is not positive.
+    pub fn validate(&self) -> Result<(), CoreError> {
+        let bad = |key: &str, reason: String| Err(CoreError::InvalidConfig { key: key.into(), reason });
+        if !(self.alpha.is_finite() && self.alpha >= 0.0) {
+            return bad("trainer.shadow.alpha", format!("{} must be finite and nonnegative", self.alpha));
+        }
+        let offset = self.utility.offset;
+        if !(offset.is_finite() && offset > 0.0) {
+            return bad("trainer.shadow.utility.offset", format!("{offset} must be finite and positive"));
+        }
+        match self.occupancy {
+            Averaging::Ema { beta } if !(beta > 0.0 && beta <= 1.0) => {
+                return bad("trainer.shadow.occupancy.beta", format!("{beta} is not in (0, 1]"));
+            }
+            Averaging::Window { episodes: 0 } => {
+                return bad("trainer.shadow.occupancy.episodes", "must be at least 1".into());
+            }
+            _ => {}
+        }
+        if self.max_scale.is_nan() || self.max_scale <= 0.0 {
+            return bad("trainer.shadow.max_scale", format!("{} must be positive (inf: no check)", self.max_scale));
+        }
+        Ok(())
+    }
+
     /// The per-agent reward computation for `spec` (task only when disabled).
     pub fn agent_rewards(&self, spec: &EnvSpec) -> Result<AgentRewards, CoreError> {
         self.utility.validate()?;

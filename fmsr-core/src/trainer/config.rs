@@ -79,7 +79,7 @@ impl TrainerConfig {
         if self.threads == Some(0) {
             return bad("trainer.threads", "must be at least 1");
         }
-        Ok(())
+        self.shadow.validate()
     }
 
     /// The number of environments: `envs` or `episodes_per_cycle`.
