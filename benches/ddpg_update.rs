@@ -206,12 +206,14 @@ fn limits(_c: &mut Criterion) {
     );
     let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a one-thread pool");
+    let mut defaults = Vec::new();
     for n in BATCHES {
         let shapes = gemm_shapes(&layout, n);
         for threads in [1, 2] {
             let (secs, rate) =
                 if threads == 1 { one.install(|| update_rate(n, 1, 15)) } else { update_rate(n, threads, 15) };
             let ceiling = gemm_ceiling(&shapes, threads);
+            defaults.push(((n, threads), secs));
             println!(
                 "joint update, batch {n}, {threads} thread(s) ({cores} cores): {:.1} ms, {rate:.1} GFLOP/s; GEMM ceiling \
                  on the same shapes {ceiling:.1} GFLOP/s; update / ceiling = {:.2}",
@@ -219,6 +221,22 @@ fn limits(_c: &mut Criterion) {
                 rate / ceiling
             );
         }
+    }
+    // The same updates with the `fmsr` binary's allocator settings (glibc's
+    // freed memory kept for the next step, fmsr::allocator), set from here on:
+    // criterion's timings below run with them, as training does.
+    if !fmsr::allocator::keep_freed_memory() {
+        println!("allocator: glibc's defaults (no glibc here to set)");
+        return;
+    }
+    for ((n, threads), default) in defaults {
+        let (secs, _) = if threads == 1 { one.install(|| update_rate(n, 1, 15)) } else { update_rate(n, threads, 15) };
+        println!(
+            "joint update, batch {n}, {threads} thread(s), freed memory kept (fmsr::allocator): {:.1} ms; \
+             kept / glibc defaults = {:.2}",
+            secs * 1e3,
+            secs / default
+        );
     }
 }
 

@@ -58,6 +58,9 @@ fn main() -> Result<()> {
     if std::env::args().any(|a| a == "--list") {
         return Ok(()); // `cargo test --benches` lists benches; nothing to list here
     }
+    // As the `fmsr` binary trains: freed memory kept for the next step (fmsr::allocator).
+    let kept = fmsr::allocator::keep_freed_memory();
+    println!("allocator: {}", if kept { "freed memory kept (fmsr::allocator)" } else { "the C library's defaults" });
     let cycles: usize = std::env::var("FMSR_EPOCH_CYCLES").ok().map(|v| v.parse()).transpose()?.unwrap_or(5);
     let cores = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
     let scale = PAPER_CYCLES as f64 / cycles as f64;

@@ -65,6 +65,7 @@
 #![warn(missing_docs)]
 
 pub mod algorithms;
+pub mod allocator;
 pub mod artefacts;
 #[cfg(feature = "cli")]
 pub mod cli;

@@ -8,6 +8,9 @@ fn main() -> std::process::ExitCode {
         // SAFETY: the first thing the process does, before any thread exists.
         unsafe { std::env::set_var("BURN_DEVICE", "flex") };
     }
+    // Freed tensors' memory reused at the next step instead of faulted in
+    // again (fmsr::allocator); `false` off glibc, where nothing changes.
+    let _ = fmsr::allocator::keep_freed_memory();
     // The library's warnings, on stderr.
     log::set_logger(&STDERR).map(|()| log::set_max_level(log::LevelFilter::Warn)).ok();
     fmsr::cli::main()

@@ -56,7 +56,9 @@ pub(crate) fn load_experiment(path: &std::path::Path) -> Result<ExperimentConfig
 /// and a machine without that adapter fails there with a typed error; the
 /// `fmsr` binary (`src/main.rs`) therefore sets `BURN_DEVICE=flex`, where
 /// the state always can be made, before calling this. A binary of your own
-/// does the same if it resumes runs in a GPU build.
+/// does the same if it resumes runs in a GPU build. The `fmsr` binary also
+/// keeps freed memory for the next training step
+/// ([`crate::allocator::keep_freed_memory`]), which a binary of your own may call too.
 #[must_use]
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
