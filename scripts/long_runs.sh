@@ -204,6 +204,10 @@ drive() {
   # shellcheck disable=SC1091
   source "$dir/keeper.env"
   export RAYON_NUM_THREADS=1
+  # glibc keeps freed memory for the next step, as fmsr::allocator sets it in
+  # binaries since ccfaceb (the batch-1024 update 20-27 % faster on one thread,
+  # results bit for bit the same); a binary built before it takes it from here.
+  export GLIBC_TUNABLES=glibc.malloc.mmap_threshold=33554432:glibc.malloc.trim_threshold=1073741824
   # A MuJoCo run's binary finds libmujoco in the home (copied by start or resume).
   export LD_LIBRARY_PATH=$home/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
   log "driver $$ on $(basename "$dir") with $BIN"
