@@ -90,17 +90,7 @@ impl<R: ConfiguredRule> Entry for RuleEntry<R> {
     }
 
     fn resolve(&self, section: Option<&toml::Table>) -> Result<toml::Table, String> {
-        let mut merged = toml::Table::try_from(R::default_config()).map_err(|e| e.to_string())?;
-        for (k, v) in section.into_iter().flatten() {
-            if !merged.contains_key(k) {
-                let mut names: Vec<_> = merged.keys().cloned().collect();
-                names.sort();
-                return Err(format!("unknown key `{}.{k}`, expected one of {}", R::NAME, names.join(", ")));
-            }
-            merged.insert(k.clone(), v.clone());
-        }
-        let config = R::Config::deserialize(toml::Value::Table(merged)).map_err(|e| format!("`[{}]`: {e}", R::NAME))?;
-        toml::Table::try_from(config).map_err(|e| e.to_string())
+        resolve_section(R::NAME, &R::default_config(), section)
     }
 
     fn validate(&self, settings: &toml::Table) -> Result<(), ExperimentError> {
@@ -158,6 +148,28 @@ pub fn register<R: ConfiguredRule>() -> Result<(), ExperimentError> {
             Ok(())
         }
     }
+}
+
+/// The settings of section `[name]` (absent: all of `defaults`), every
+/// setting written out: keys it names replace the defaults, a key the
+/// settings do not have is refused, and the result must read as a `C`.
+/// `Err` says what is wrong, naming the key.
+pub(crate) fn resolve_section<C: serde::Serialize + serde::de::DeserializeOwned>(
+    name: &str,
+    defaults: &C,
+    section: Option<&toml::Table>,
+) -> Result<toml::Table, String> {
+    let mut merged = toml::Table::try_from(defaults).map_err(|e| e.to_string())?;
+    for (k, v) in section.into_iter().flatten() {
+        if !merged.contains_key(k) {
+            let mut names: Vec<_> = merged.keys().cloned().collect();
+            names.sort();
+            return Err(format!("unknown key `{name}.{k}`, expected one of {}", names.join(", ")));
+        }
+        merged.insert(k.clone(), v.clone());
+    }
+    let config = C::deserialize(toml::Value::Table(merged)).map_err(|e| format!("`[{name}]`: {e}"))?;
+    toml::Table::try_from(config).map_err(|e| e.to_string())
 }
 
 /// Whether `name` may name a section of an experiment: a lowercase key

@@ -47,8 +47,8 @@ use std::sync::{Arc, LazyLock, PoisonError, RwLock};
 
 use fmsr_core::env::AnyEnv;
 use fmsr_core::prelude::*;
-use serde::Serialize;
 use serde::de::DeserializeOwned;
+use serde::{Deserialize as _, Serialize};
 
 use crate::error::ExperimentError;
 
@@ -97,17 +97,7 @@ impl<T: Task> Entry for TaskEntry<T> {
     }
 
     fn resolve(&self, section: Option<&toml::Table>) -> Result<toml::Table, String> {
-        let mut merged = toml::Table::try_from(T::Config::default()).map_err(|e| e.to_string())?;
-        for (k, v) in section.into_iter().flatten() {
-            if !merged.contains_key(k) {
-                let mut names: Vec<_> = merged.keys().cloned().collect();
-                names.sort();
-                return Err(format!("unknown key `{}.{k}`, expected one of {}", T::NAME, names.join(", ")));
-            }
-            merged.insert(k.clone(), v.clone());
-        }
-        let config = T::Config::deserialize(toml::Value::Table(merged)).map_err(|e| format!("`[{}]`: {e}", T::NAME))?;
-        toml::Table::try_from(config).map_err(|e| e.to_string())
+        crate::algorithms::resolve_section(T::NAME, &T::Config::default(), section)
     }
 
     fn env(&self, settings: &toml::Table) -> Result<AnyEnv, ExperimentError> {
@@ -120,8 +110,6 @@ impl<T: Task> Entry for TaskEntry<T> {
         Ok(AnyEnv::new(env))
     }
 }
-
-use serde::Deserialize as _;
 
 type Registry = BTreeMap<&'static str, Arc<dyn Entry>>;
 
@@ -161,10 +149,7 @@ pub fn register<T: Task>() -> Result<(), ExperimentError> {
 /// The tasks' names, `shadow_hand` and every registered one, sorted.
 #[must_use]
 pub fn names() -> Vec<&'static str> {
-    let registry = REGISTRY.read().unwrap_or_else(PoisonError::into_inner);
-    let mut names: Vec<_> = registry.keys().copied().chain([SHADOW_HAND]).collect();
-    names.sort_unstable();
-    names
+    names_of(&REGISTRY.read().unwrap_or_else(PoisonError::into_inner))
 }
 
 /// The entry of registered task `name` (not `shadow_hand`).

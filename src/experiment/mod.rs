@@ -353,13 +353,13 @@ fn check_owners(table: &toml::Table) -> Result<(), ExperimentError> {
             return conflict(name, format!("`algorithm = \"{algorithm}\"` does not read `[{name}]`"));
         }
     }
-    // (An unknown task is reported by its lookup, listing the tasks.)
+    // An unknown task is reported by its lookup, listing the tasks.
     let task = text(&["task"]).unwrap_or_else(|| SHADOW_HAND.into());
     let names = tasks::names();
-    for &name in names.iter().filter(|_| names.contains(&task.as_str())) {
-        if name != task && table.contains_key(name) {
-            return conflict(name, format!("`task = \"{task}\"` does not read `[{name}]`"));
-        }
+    if names.contains(&task.as_str())
+        && let Some(name) = names.into_iter().find(|&n| n != task && table.contains_key(n))
+    {
+        return conflict(name, format!("`task = \"{task}\"` does not read `[{name}]`"));
     }
     Ok(())
 }
