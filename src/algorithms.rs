@@ -25,7 +25,7 @@
 //! default never changes a saved run). The registry is one per process, as
 //! the command line that reads configs is.
 
-use std::any::TypeId;
+use std::any::{Any, TypeId};
 use std::collections::BTreeMap;
 use std::marker::PhantomData;
 use std::sync::{Arc, LazyLock, PoisonError, RwLock};
@@ -53,34 +53,128 @@ const RESERVED: [&str; 14] = [
     "eval",
 ];
 
-/// What the registry keeps of one rule.
+/// A registered algorithm's settings, read once: the rule's own
+/// [`ConfiguredRule::Config`], every setting resolved (the section's keys
+/// over the rule's defaults), beside the registry's entry that reads it.
+/// An experiment keeps these from the moment it is loaded; building,
+/// labelling and writing a run take them as they are.
+#[derive(Clone)]
+pub struct AlgorithmSettings {
+    entry: Arc<dyn Entry>,
+    config: Arc<dyn Any + Send + Sync>,
+}
+
+impl AlgorithmSettings {
+    /// The settings of algorithm `name` from its section (absent: the
+    /// rule's defaults), checked by the rule.
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] for an unknown algorithm or key, or a
+    /// value of the wrong type, naming the key; the rule's own checks.
+    pub fn resolve(name: &str, section: Option<&toml::Table>) -> Result<Self, ExperimentError> {
+        let entry = find(name)?;
+        let config = entry.resolve(section).map_err(|reason| ExperimentError::Config { key: name.into(), reason })?;
+        let settings = Self { entry, config };
+        settings.entry.validate(&*settings.config)?;
+        Ok(settings)
+    }
+
+    /// Rule `R`'s own settings.
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] when these are another rule's settings.
+    pub fn get<R: ConfiguredRule>(&self) -> Result<&R::Config, ExperimentError> {
+        self.config.downcast_ref::<R::Config>().ok_or_else(|| ExperimentError::Config {
+            key: R::NAME.into(),
+            reason: format!("these are the settings of `{}`, not of `{}`", self.entry.name(), R::NAME),
+        })
+    }
+
+    /// The settings as the rule's TOML section, every setting written out.
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] when a value cannot be written as TOML.
+    pub fn to_table(&self) -> Result<toml::Table, ExperimentError> {
+        self.entry
+            .write(&*self.config)
+            .map_err(|reason| ExperimentError::Config { key: self.entry.name().into(), reason })
+    }
+
+    /// Which teammates' actions the actors' loss takes.
+    #[must_use]
+    pub fn teammates(&self) -> Teammates {
+        self.entry.teammates(&*self.config)
+    }
+
+    /// The learner of these settings on `parts`.
+    ///
+    /// # Errors
+    /// The rule's checks of its parts ([`ExperimentError::Nn`]).
+    pub fn build(&self, parts: LearnerParts) -> Result<AnyLearner, ExperimentError> {
+        self.entry.build(&*self.config, parts)
+    }
+
+    /// The algorithm's part of a run's label.
+    pub(crate) fn label(&self) -> Option<String> {
+        self.entry.label()
+    }
+}
+
+impl PartialEq for AlgorithmSettings {
+    fn eq(&self, other: &Self) -> bool {
+        self.entry.rule() == other.entry.rule() && self.entry.eq(&*self.config, &*other.config)
+    }
+}
+
+impl std::fmt::Debug for AlgorithmSettings {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.entry.debug(&*self.config, f)
+    }
+}
+
+/// What the registry keeps of one rule. Its methods take the rule's
+/// settings as the [`AlgorithmSettings`] it made hold them (`&dyn Any`: the
+/// rule's `Config`).
 pub(crate) trait Entry: Send + Sync {
     /// The rule's type, to tell a second registration from a clash.
     fn rule(&self) -> TypeId;
 
-    /// The settings of `section` (absent: all defaults), every setting
-    /// written out; `Err` holds what is wrong, naming the key.
-    fn resolve(&self, section: Option<&toml::Table>) -> Result<toml::Table, String>;
+    /// The rule's name.
+    fn name(&self) -> &'static str;
 
-    /// Checks resolved settings as the rule does.
-    fn validate(&self, settings: &toml::Table) -> Result<(), ExperimentError>;
+    /// The settings of `section` (absent: all defaults); `Err` holds what is
+    /// wrong, naming the key.
+    fn resolve(&self, section: Option<&toml::Table>) -> Result<Arc<dyn Any + Send + Sync>, String>;
+
+    /// The settings written out as the rule's section.
+    fn write(&self, config: &dyn Any) -> Result<toml::Table, String>;
+
+    /// Checks the settings as the rule does.
+    fn validate(&self, config: &dyn Any) -> Result<(), ExperimentError>;
 
     /// The algorithm's part of a run's label.
     fn label(&self) -> Option<String>;
 
     /// Which teammates' actions the actors' loss takes.
-    fn teammates(&self, settings: &toml::Table) -> Result<Teammates, ExperimentError>;
+    fn teammates(&self, config: &dyn Any) -> Teammates;
 
     /// The learner of these settings on `parts`.
-    fn build(&self, settings: &toml::Table, parts: LearnerParts) -> Result<AnyLearner, ExperimentError>;
+    fn build(&self, config: &dyn Any, parts: LearnerParts) -> Result<AnyLearner, ExperimentError>;
+
+    /// Whether two of the rule's settings are equal.
+    fn eq(&self, a: &dyn Any, b: &dyn Any) -> bool;
+
+    /// The settings as the rule's `Debug` writes them.
+    fn debug(&self, config: &dyn Any, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result;
 }
 
 struct RuleEntry<R>(PhantomData<fn() -> R>);
 
 impl<R: ConfiguredRule> RuleEntry<R> {
-    fn config(settings: &toml::Table) -> Result<R::Config, ExperimentError> {
-        R::Config::deserialize(toml::Value::Table(settings.clone()))
-            .map_err(|e| ExperimentError::Config { key: R::NAME.into(), reason: e.to_string() })
+    /// The rule's settings; [`AlgorithmSettings`] pairs every entry with
+    /// settings it resolved itself, so another type is a bug of this module.
+    fn config(config: &dyn Any) -> &R::Config {
+        config.downcast_ref::<R::Config>().expect("an entry is only given the settings it resolved")
     }
 }
 
@@ -89,25 +183,43 @@ impl<R: ConfiguredRule> Entry for RuleEntry<R> {
         TypeId::of::<R>()
     }
 
-    fn resolve(&self, section: Option<&toml::Table>) -> Result<toml::Table, String> {
-        resolve_section(R::NAME, &R::default_config(), section)
+    fn name(&self) -> &'static str {
+        R::NAME
     }
 
-    fn validate(&self, settings: &toml::Table) -> Result<(), ExperimentError> {
-        Ok(R::from_config(Self::config(settings)?).validate()?)
+    fn resolve(&self, section: Option<&toml::Table>) -> Result<Arc<dyn Any + Send + Sync>, String> {
+        let table = resolve_section(R::NAME, &R::default_config(), section)?;
+        let config = R::Config::deserialize(toml::Value::Table(table)).map_err(|e| format!("`[{}]`: {e}", R::NAME))?;
+        Ok(Arc::new(config))
+    }
+
+    fn write(&self, config: &dyn Any) -> Result<toml::Table, String> {
+        toml::Table::try_from(Self::config(config)).map_err(|e| e.to_string())
+    }
+
+    fn validate(&self, config: &dyn Any) -> Result<(), ExperimentError> {
+        Ok(R::from_config(Self::config(config).clone()).validate()?)
     }
 
     fn label(&self) -> Option<String> {
         R::label()
     }
 
-    fn teammates(&self, settings: &toml::Table) -> Result<Teammates, ExperimentError> {
-        Ok(R::teammates(&Self::config(settings)?))
+    fn teammates(&self, config: &dyn Any) -> Teammates {
+        R::teammates(Self::config(config))
     }
 
-    fn build(&self, settings: &toml::Table, parts: LearnerParts) -> Result<AnyLearner, ExperimentError> {
-        let rule = R::from_config(Self::config(settings)?);
+    fn build(&self, config: &dyn Any, parts: LearnerParts) -> Result<AnyLearner, ExperimentError> {
+        let rule = R::from_config(Self::config(config).clone());
         Ok(AnyLearner::new(OffPolicy::with_rule(parts, rule)?))
+    }
+
+    fn eq(&self, a: &dyn Any, b: &dyn Any) -> bool {
+        a.downcast_ref::<R::Config>() == b.downcast_ref::<R::Config>()
+    }
+
+    fn debug(&self, config: &dyn Any, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        std::fmt::Debug::fmt(Self::config(config), f)
     }
 }
 
@@ -217,10 +329,7 @@ pub(crate) fn find(name: &str) -> Result<Arc<dyn Entry>, ExperimentError> {
 /// [`ExperimentError::Config`] for an unknown name or setting, the rule's
 /// own checks ([`ExperimentError::Nn`]).
 pub fn build(name: &str, section: Option<&toml::Table>, parts: LearnerParts) -> Result<AnyLearner, ExperimentError> {
-    let entry = find(name)?;
-    let settings = entry.resolve(section).map_err(|reason| ExperimentError::Config { key: name.into(), reason })?;
-    entry.validate(&settings)?;
-    entry.build(&settings, parts)
+    AlgorithmSettings::resolve(name, section)?.build(parts)
 }
 
 #[cfg(test)]
@@ -296,11 +405,15 @@ mod tests {
         let err = find("iddpg_not_registered").map(|_| ()).unwrap_err();
         assert!(err.to_string().contains("iddpg_not_registered") && err.to_string().contains("maddpg, masac, matd3"));
         let section: toml::Table = "polyak = 0.9\nwarp = 1".parse().unwrap();
-        let err = find("matd3").unwrap().resolve(Some(&section)).unwrap_err();
-        assert!(err.contains("`matd3.warp`"), "{err}");
+        let err = AlgorithmSettings::resolve("matd3", Some(&section)).unwrap_err();
+        assert!(err.to_string().contains("`matd3.warp`"), "{err}");
         let section: toml::Table = "polyak = 0.9".parse().unwrap();
-        let settings = find("matd3").unwrap().resolve(Some(&section)).unwrap();
-        assert_eq!(settings["polyak"].as_float(), Some(0.9));
-        assert_eq!(settings.len(), toml::Table::try_from(fmsr_nn::Matd3Config::new()).unwrap().len());
+        let settings = AlgorithmSettings::resolve("matd3", Some(&section)).unwrap();
+        assert_eq!(settings.get::<Matd3Rule>().unwrap().polyak, 0.9);
+        let written = settings.to_table().unwrap();
+        assert_eq!(written["polyak"].as_float(), Some(0.9));
+        assert_eq!(written.len(), toml::Table::try_from(fmsr_nn::Matd3Config::new()).unwrap().len());
+        let err = settings.get::<MaddpgRule>().unwrap_err();
+        assert!(err.to_string().contains("settings of `matd3`, not of `maddpg`"), "{err}");
     }
 }

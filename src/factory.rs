@@ -72,8 +72,8 @@ impl ExperimentConfig {
         envs: Vec<E>,
         comm: Arc<dyn Communicator>,
     ) -> Result<Trainer<E, AnyLearner>, ExperimentError> {
-        let (entry, settings) = self.algorithm_entry()?;
-        self.build_worker_trainer_with(envs, comm, |parts| entry.build(&settings, parts))
+        let settings = self.algorithm_settings()?;
+        self.build_worker_trainer_with(envs, comm, |parts| settings.build(parts))
     }
 
     /// As [`ExperimentConfig::build_trainer`], with the learner that

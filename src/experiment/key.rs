@@ -13,6 +13,7 @@ use fmsr_envs::shadow_hand::GoalDistance;
 use fmsr_nn::{CriticTying, NormalizerStats, TargetClip, Teammates};
 
 use super::{ActorView, Engine, ExperimentConfig, Stack};
+use crate::algorithms::AlgorithmSettings;
 
 /// A configuration's identity: its method and every way it departs from the
 /// method as the paper runs it, in a fixed order; see [`Distinction`].
@@ -129,8 +130,8 @@ impl ExperimentConfig {
         {
             d.push(Distinction::Agents(agents.len()));
         }
-        let algorithm = self.algorithm_entry().ok();
-        let teammates = algorithm.as_ref().and_then(|(entry, settings)| entry.teammates(settings).ok());
+        let algorithm = self.algorithm_settings().ok();
+        let teammates = algorithm.as_ref().map(AlgorithmSettings::teammates);
         if teammates == Some(Teammates::Current) {
             d.push(Distinction::CurrentTeammates);
         }
@@ -175,7 +176,7 @@ impl ExperimentConfig {
             CriticTying::Shared => d.push(Distinction::SharedCritic),
         }
         match algorithm {
-            Some((entry, _)) => d.extend(entry.label().map(Distinction::Algorithm)),
+            Some(settings) => d.extend(settings.label().map(Distinction::Algorithm)),
             None => d.push(Distinction::Algorithm(self.algorithm.to_uppercase())),
         }
         if self.engine == Engine::Mujoco && self.is_shadow_hand() {

@@ -52,7 +52,6 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
@@ -66,7 +65,7 @@ pub use crate::error::ExperimentError;
 use fmsr_graph::Graph;
 use fmsr_nn::{ConfiguredRule, CriticTying, Device, DeviceSpec, NetworkConfig, Teammates};
 
-use crate::algorithms;
+use crate::algorithms::{self, AlgorithmSettings};
 pub use crate::stack::Stack;
 use crate::tasks::{self, SHADOW_HAND};
 
@@ -240,11 +239,11 @@ pub struct ExperimentConfig {
     /// `trainer.seed + networks.seed`.
     #[serde(default = "NetworkConfig::new")]
     pub networks: NetworkConfig,
-    /// The algorithms' own sections by name, each with every setting
-    /// written out; the chosen algorithm's is the `[<algorithm>]` of the
-    /// file ([`ExperimentConfig::algorithm_config`]).
+    /// The algorithms' settings by name, each read once through the
+    /// registry; the chosen algorithm's are the `[<algorithm>]` of the
+    /// file ([`ExperimentConfig::algorithm_settings`]).
     #[serde(skip)]
-    algorithm_sections: BTreeMap<String, toml::Table>,
+    algorithm_settings: BTreeMap<String, AlgorithmSettings>,
     /// Information sharing settings (mode, target, mixing weights); only with a
     /// method that shares.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -420,7 +419,7 @@ impl ExperimentConfig {
             Some(toml::Value::Table(section)) => Some(section),
             Some(_) => return Err(parse_err(format!("`{algorithm}` must be a table"))),
         };
-        let settings = algorithms::find(&algorithm)?.resolve(section.as_ref()).map_err(parse_err)?;
+        let settings = AlgorithmSettings::resolve(&algorithm, section.as_ref())?;
         for (key, defaults) in burn_sections().map_err(|e| parse_err(e.to_string()))? {
             let Some(section) = value.get_mut(key) else { continue };
             let table = section.as_table().ok_or_else(|| parse_err(format!("`{key}` must be a table")))?;
@@ -437,7 +436,7 @@ impl ExperimentConfig {
         }
         let mut config =
             ExperimentConfig::deserialize(toml::Value::Table(value)).map_err(|e| parse_err(e.to_string()))?;
-        config.algorithm_sections.insert(algorithm, settings);
+        config.algorithm_settings.insert(algorithm, settings);
         config.task_settings = task_settings;
         if let Some(d) = config.stack.goal_distance() {
             config.env.goal_distance = d;
@@ -499,8 +498,7 @@ impl ExperimentConfig {
     pub fn to_toml(&self) -> Result<String, ExperimentError> {
         let err = |e: toml::ser::Error| ExperimentError::Encode { what: "config.toml", reason: e.to_string() };
         let mut table = toml::Table::try_from(self.clone().with_sections_written()).map_err(err)?;
-        let (_, settings) = self.algorithm_entry()?;
-        table.insert(self.algorithm.clone(), toml::Value::Table(settings));
+        table.insert(self.algorithm.clone(), toml::Value::Table(self.algorithm_settings()?.to_table()?));
         if let Some(settings) = &self.task_settings {
             table.remove("env");
             table.remove("engine");
@@ -529,8 +527,7 @@ impl ExperimentConfig {
         self.trainer.validate()?;
         self.replay.validate()?;
         self.networks.validate()?;
-        let (entry, settings) = self.algorithm_entry()?;
-        entry.validate(&settings)?;
+        self.algorithm_settings()?;
         device_of(self.device)?;
         if self.networks.critic == CriticTying::Shared && self.method.shadow() {
             return Err(ExperimentError::Config {
@@ -579,8 +576,7 @@ impl ExperimentConfig {
     /// # Errors
     /// [`ExperimentError::Config`] for an algorithm that is not registered.
     pub fn teammates(&self) -> Result<Teammates, ExperimentError> {
-        let (entry, settings) = self.algorithm_entry()?;
-        entry.teammates(&settings)
+        Ok(self.algorithm_settings()?.teammates())
     }
 
     /// The environment config with the method's task reward.
@@ -609,8 +605,8 @@ impl ExperimentConfig {
     /// a default cannot change a run that is resumed or evaluated.
     #[must_use]
     pub fn with_algorithm_section(mut self) -> Self {
-        if let Ok((_, settings)) = self.algorithm_entry() {
-            self.algorithm_sections.insert(self.algorithm.clone(), settings);
+        if let Ok(settings) = self.algorithm_settings() {
+            self.algorithm_settings.insert(self.algorithm.clone(), settings);
         }
         self
     }
@@ -639,14 +635,28 @@ impl ExperimentConfig {
         self.with_algorithm_section().with_sharing_section()
     }
 
-    /// The registry's entry of the chosen algorithm and its settings, each
-    /// written out (defaults where the config left them out).
-    pub(crate) fn algorithm_entry(&self) -> Result<(Arc<dyn algorithms::Entry>, toml::Table), ExperimentError> {
-        let entry = algorithms::find(&self.algorithm)?;
-        let settings = entry
-            .resolve(self.algorithm_sections.get(&self.algorithm))
-            .map_err(|reason| ExperimentError::Config { key: self.algorithm.clone(), reason })?;
-        Ok((entry, settings))
+    /// The chosen algorithm's settings, as read with the config (the
+    /// rule's defaults when `algorithm` was changed to one the file has no
+    /// section of).
+    ///
+    /// ```
+    /// use fmsr::experiment::ExperimentConfig;
+    /// use fmsr::nn::Matd3Rule;
+    /// let text = "name = \"x\"\nmethod = \"dense\"\nalgorithm = \"matd3\"\n[matd3]\npolicy_delay = 3\n";
+    /// let config = ExperimentConfig::from_toml(text, "x.toml".as_ref())?;
+    /// let settings = config.algorithm_settings()?;
+    /// assert_eq!(settings.get::<Matd3Rule>()?.policy_delay, 3);
+    /// assert_eq!(settings.to_table()?["policy_delay"].as_integer(), Some(3));
+    /// # Ok::<(), fmsr::error::ExperimentError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] for an algorithm that is not registered.
+    pub fn algorithm_settings(&self) -> Result<AlgorithmSettings, ExperimentError> {
+        match self.algorithm_settings.get(&self.algorithm) {
+            Some(settings) => Ok(settings.clone()),
+            None => AlgorithmSettings::resolve(&self.algorithm, None),
+        }
     }
 
     /// Rule `R`'s settings in this config (its section, defaults where the
@@ -664,10 +674,10 @@ impl ExperimentConfig {
     /// # Errors
     /// [`ExperimentError::Config`] naming the section when its settings are not `R`'s.
     pub fn algorithm_config<R: ConfiguredRule>(&self) -> Result<R::Config, ExperimentError> {
-        let bad = |reason: String| ExperimentError::Config { key: R::NAME.into(), reason };
-        let mut settings = toml::Table::try_from(R::default_config()).map_err(|e| bad(e.to_string()))?;
-        settings.extend(self.algorithm_sections.get(R::NAME).cloned().unwrap_or_default());
-        R::Config::deserialize(toml::Value::Table(settings)).map_err(|e| bad(e.to_string()))
+        match self.algorithm_settings.get(R::NAME) {
+            Some(settings) => settings.get::<R>().cloned(),
+            None => Ok(R::default_config()),
+        }
     }
 
     /// The config with algorithm `R` and these settings.
@@ -686,12 +696,12 @@ impl ExperimentConfig {
     /// [`ExperimentError::Config`] when `R` is not registered
     /// ([`algorithms::register`]) or its settings are impossible.
     pub fn with_algorithm<R: ConfiguredRule>(mut self, config: &R::Config) -> Result<Self, ExperimentError> {
-        let settings = toml::Table::try_from(config)
+        let section = toml::Table::try_from(config)
             .map_err(|e| ExperimentError::Config { key: R::NAME.into(), reason: e.to_string() })?;
+        let settings = AlgorithmSettings::resolve(R::NAME, Some(&section))?;
+        settings.get::<R>()?;
         self.algorithm = R::NAME.into();
-        self.algorithm_sections.insert(self.algorithm.clone(), settings);
-        let (entry, settings) = self.algorithm_entry()?;
-        entry.validate(&settings)?;
+        self.algorithm_settings.insert(self.algorithm.clone(), settings);
         Ok(self)
     }
 }
