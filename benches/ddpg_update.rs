@@ -213,7 +213,7 @@ fn limits(_c: &mut Criterion) {
             let (secs, rate) =
                 if threads == 1 { one.install(|| update_rate(n, 1, 15)) } else { update_rate(n, threads, 15) };
             let ceiling = gemm_ceiling(&shapes, threads);
-            defaults.push(((n, threads), secs));
+            defaults.push(((n, threads), secs, ceiling));
             println!(
                 "joint update, batch {n}, {threads} thread(s) ({cores} cores): {:.1} ms, {rate:.1} GFLOP/s; GEMM ceiling \
                  on the same shapes {ceiling:.1} GFLOP/s; update / ceiling = {:.2}",
@@ -229,13 +229,15 @@ fn limits(_c: &mut Criterion) {
         println!("allocator: glibc's defaults (no glibc here to set)");
         return;
     }
-    for ((n, threads), default) in defaults {
-        let (secs, _) = if threads == 1 { one.install(|| update_rate(n, 1, 15)) } else { update_rate(n, threads, 15) };
+    for ((n, threads), default, ceiling) in defaults {
+        let (secs, rate) =
+            if threads == 1 { one.install(|| update_rate(n, 1, 15)) } else { update_rate(n, threads, 15) };
         println!(
-            "joint update, batch {n}, {threads} thread(s), freed memory kept (fmsr::allocator): {:.1} ms; \
-             kept / glibc defaults = {:.2}",
+            "joint update, batch {n}, {threads} thread(s), freed memory kept (fmsr::allocator): {:.1} ms, \
+             {rate:.1} GFLOP/s; kept / glibc defaults = {:.2}; update / ceiling = {:.2}",
             secs * 1e3,
-            secs / default
+            secs / default,
+            rate / ceiling
         );
     }
 }
