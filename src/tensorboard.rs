@@ -140,12 +140,14 @@ impl EventWriter {
         let value = |tag: String, v: f64| SummaryValue { tag, value: Some(Scalar::SimpleValue(v as f32)) };
         let mut values = vec![
             value("success/eval".into(), stats.success_rate),
-            value("success/eval_held".into(), stats.held_success_rate),
             value("success/train".into(), stats.train_success_rate),
             value("drop/eval".into(), stats.drop_rate),
             value("speed/env_steps_per_sec".into(), stats.env_steps_per_sec),
             value("speed/updates_per_sec".into(), stats.updates_per_sec),
         ];
+        if let Some(held) = stats.held_success_rate {
+            values.insert(1, value("success/eval_held".into(), held));
+        }
         let agent_series: [(&str, &[f64]); 8] = [
             ("return", &stats.returns),
             ("critic_loss", &stats.critic_loss),

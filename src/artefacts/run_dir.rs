@@ -226,7 +226,7 @@ impl RunDir {
                 s.epoch,
                 distance.key(),
                 s.success_rate,
-                s.held_success_rate,
+                opt(s.held_success_rate.as_ref()),
                 s.train_success_rate,
                 s.drop_rate,
                 s.env_steps,

@@ -423,7 +423,7 @@ impl<E: Env + Send, A: Algorithm, O: OccupancyEstimator, S: ShadowReward> Traine
             success_rate: eval.success_rate,
             train_success_rate: tally.successes as f64 / tally.episodes.max(1) as f64,
             drop_rate: eval.drop_rate,
-            held_success_rate: eval.held_success_rate,
+            held_success_rate: Some(eval.held_success_rate),
             eval_feature_rates: eval.feature_rates,
             train_feature_rates: per(&tally.features, tally.steps),
             returns: per(&tally.returns, tally.episodes),

@@ -22,9 +22,10 @@ pub struct EpochStats {
     pub drop_rate: f64,
     /// Fraction of evaluation episodes that succeeded under the test's rule,
     /// turned and held: within the training threshold at the last step and
-    /// never dropped (absent in metrics older than the full-angle task).
-    #[serde(default)]
-    pub held_success_rate: f64,
+    /// never dropped; `None` where it was not measured (metrics older than
+    /// the full-angle task).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub held_success_rate: Option<f64>,
     /// Mean per-step value of each feature over the evaluation episodes.
     pub eval_feature_rates: Vec<f64>,
     /// Mean per-step value of each feature over the training rollouts.
@@ -200,5 +201,26 @@ pub(super) fn accumulate_features(infos: &[StepInfo], acc: &mut [f64]) {
         for (a, v) in acc.iter_mut().zip(&info.features) {
             *a += f64::from(*v);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::EpochStats;
+
+    // Guards what an old record means: an epoch written before the held
+    // success rate was measured reads it as unmeasured, never as 0, and a
+    // measured one reads back as written.
+    #[test]
+    fn an_unmeasured_held_success_rate_reads_as_none() {
+        let path =
+            concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/results/gpu_lease_2026-11-27/block_dense/metrics.jsonl");
+        let line = std::fs::read_to_string(path).unwrap().lines().next().unwrap().to_owned();
+        let old: EpochStats = serde_json::from_str(&line).unwrap();
+        assert_eq!(old.held_success_rate, None);
+        let measured = EpochStats { held_success_rate: Some(0.25), ..old };
+        let text = serde_json::to_string(&measured).unwrap();
+        assert!(text.contains("\"held_success_rate\":0.25"), "{text}");
+        assert_eq!(serde_json::from_str::<EpochStats>(&text).unwrap().held_success_rate, Some(0.25));
     }
 }
