@@ -73,7 +73,7 @@ impl AlgorithmSettings {
     /// value of the wrong type, naming the key; the rule's own checks.
     pub fn resolve(name: &str, section: Option<&toml::Table>) -> Result<Self, ExperimentError> {
         let entry = find(name)?;
-        let config = entry.resolve(section).map_err(|reason| ExperimentError::Config { key: name.into(), reason })?;
+        let config = entry.resolve(section)?;
         let settings = Self { entry, config };
         settings.entry.validate(&*settings.config)?;
         Ok(settings)
@@ -84,9 +84,11 @@ impl AlgorithmSettings {
     /// # Errors
     /// [`ExperimentError::Config`] when these are another rule's settings.
     pub fn get<R: ConfiguredRule>(&self) -> Result<&R::Config, ExperimentError> {
-        self.config.downcast_ref::<R::Config>().ok_or_else(|| ExperimentError::Config {
-            key: R::NAME.into(),
-            reason: format!("these are the settings of `{}`, not of `{}`", self.entry.name(), R::NAME),
+        self.config.downcast_ref::<R::Config>().ok_or_else(|| {
+            ExperimentError::config(
+                R::NAME,
+                format!("these are the settings of `{}`, not of `{}`", self.entry.name(), R::NAME),
+            )
         })
     }
 
@@ -95,9 +97,7 @@ impl AlgorithmSettings {
     /// # Errors
     /// [`ExperimentError::Config`] when a value cannot be written as TOML.
     pub fn to_table(&self) -> Result<toml::Table, ExperimentError> {
-        self.entry
-            .write(&*self.config)
-            .map_err(|reason| ExperimentError::Config { key: self.entry.name().into(), reason })
+        self.entry.write(&*self.config)
     }
 
     /// Which teammates' actions the actors' loss takes.
@@ -142,12 +142,11 @@ pub(crate) trait Entry: Send + Sync {
     /// The rule's name.
     fn name(&self) -> &'static str;
 
-    /// The settings of `section` (absent: all defaults); `Err` holds what is
-    /// wrong, naming the key.
-    fn resolve(&self, section: Option<&toml::Table>) -> Result<Arc<dyn Any + Send + Sync>, String>;
+    /// The settings of `section` (absent: all defaults); the error names the key.
+    fn resolve(&self, section: Option<&toml::Table>) -> Result<Arc<dyn Any + Send + Sync>, ExperimentError>;
 
     /// The settings written out as the rule's section.
-    fn write(&self, config: &dyn Any) -> Result<toml::Table, String>;
+    fn write(&self, config: &dyn Any) -> Result<toml::Table, ExperimentError>;
 
     /// Checks the settings as the rule does.
     fn validate(&self, config: &dyn Any) -> Result<(), ExperimentError>;
@@ -187,14 +186,17 @@ impl<R: ConfiguredRule> Entry for RuleEntry<R> {
         R::NAME
     }
 
-    fn resolve(&self, section: Option<&toml::Table>) -> Result<Arc<dyn Any + Send + Sync>, String> {
+    fn resolve(&self, section: Option<&toml::Table>) -> Result<Arc<dyn Any + Send + Sync>, ExperimentError> {
         let table = resolve_section(R::NAME, &R::default_config(), section)?;
-        let config = R::Config::deserialize(toml::Value::Table(table)).map_err(|e| format!("`[{}]`: {e}", R::NAME))?;
+        let config = R::Config::deserialize(toml::Value::Table(table)).map_err(|e| {
+            ExperimentError::config_source(R::NAME, format!("`[{}]` does not read as its settings", R::NAME), e)
+        })?;
         Ok(Arc::new(config))
     }
 
-    fn write(&self, config: &dyn Any) -> Result<toml::Table, String> {
-        toml::Table::try_from(Self::config(config)).map_err(|e| e.to_string())
+    fn write(&self, config: &dyn Any) -> Result<toml::Table, ExperimentError> {
+        toml::Table::try_from(Self::config(config))
+            .map_err(|e| ExperimentError::config_source(R::NAME, "the settings cannot be written as TOML", e))
     }
 
     fn validate(&self, config: &dyn Any) -> Result<(), ExperimentError> {
@@ -265,23 +267,28 @@ pub fn register<R: ConfiguredRule>() -> Result<(), ExperimentError> {
 /// The settings of section `[name]` (absent: all of `defaults`), every
 /// setting written out: keys it names replace the defaults, a key the
 /// settings do not have is refused, and the result must read as a `C`.
-/// `Err` says what is wrong, naming the key.
+/// The error names the key, and keeps the decoder's error.
 pub(crate) fn resolve_section<C: serde::Serialize + serde::de::DeserializeOwned>(
     name: &str,
     defaults: &C,
     section: Option<&toml::Table>,
-) -> Result<toml::Table, String> {
-    let mut merged = toml::Table::try_from(defaults).map_err(|e| e.to_string())?;
+) -> Result<toml::Table, ExperimentError> {
+    let written = |e| ExperimentError::config_source(name, "the settings cannot be written as TOML", e);
+    let mut merged = toml::Table::try_from(defaults).map_err(written)?;
     for (k, v) in section.into_iter().flatten() {
         if !merged.contains_key(k) {
             let mut names: Vec<_> = merged.keys().cloned().collect();
             names.sort();
-            return Err(format!("unknown key `{name}.{k}`, expected one of {}", names.join(", ")));
+            return Err(ExperimentError::config(
+                format!("{name}.{k}"),
+                format!("unknown key `{name}.{k}`, expected one of {}", names.join(", ")),
+            ));
         }
         merged.insert(k.clone(), v.clone());
     }
-    let config = C::deserialize(toml::Value::Table(merged)).map_err(|e| format!("`[{name}]`: {e}"))?;
-    toml::Table::try_from(config).map_err(|e| e.to_string())
+    let config = C::deserialize(toml::Value::Table(merged))
+        .map_err(|e| ExperimentError::config_source(name, format!("`[{name}]` does not read as its settings"), e))?;
+    toml::Table::try_from(config).map_err(written)
 }
 
 /// Whether `name` may name a section of an experiment: a lowercase key
@@ -312,13 +319,15 @@ pub fn names() -> Vec<&'static str> {
 /// [`ExperimentError::Config`] for key `algorithm`, listing the registered names.
 pub(crate) fn find(name: &str) -> Result<Arc<dyn Entry>, ExperimentError> {
     let registry = REGISTRY.read().unwrap_or_else(PoisonError::into_inner);
-    registry.get(name).cloned().ok_or_else(|| ExperimentError::Config {
-        key: "algorithm".into(),
-        reason: format!(
-            "no algorithm `{name}`; registered: {} (a rule of your own crate is registered with \
+    registry.get(name).cloned().ok_or_else(|| {
+        ExperimentError::config(
+            "algorithm",
+            format!(
+                "no algorithm `{name}`; registered: {} (a rule of your own crate is registered with \
              fmsr::algorithms::register)",
-            registry.keys().copied().collect::<Vec<_>>().join(", ")
-        ),
+                registry.keys().copied().collect::<Vec<_>>().join(", ")
+            ),
+        )
     })
 }
 
@@ -413,6 +422,12 @@ mod tests {
         let written = settings.to_table().unwrap();
         assert_eq!(written["polyak"].as_float(), Some(0.9));
         assert_eq!(written.len(), toml::Table::try_from(fmsr_nn::Matd3Config::new()).unwrap().len());
+        // A value of the wrong type: the error names the section and keeps the decoder's.
+        let section: toml::Table = "polyak = \"high\"".parse().unwrap();
+        let err = AlgorithmSettings::resolve("matd3", Some(&section)).unwrap_err();
+        assert!(matches!(&err, ExperimentError::Config { key, .. } if key == "matd3"), "{err}");
+        let source = std::error::Error::source(&err).expect("the decoder's error").to_string();
+        assert!(source.contains("polyak"), "{source}");
         let err = settings.get::<MaddpgRule>().unwrap_err();
         assert!(err.to_string().contains("settings of `matd3`, not of `maddpg`"), "{err}");
     }

@@ -25,13 +25,18 @@ pub enum ExperimentError {
         /// Why not.
         reason: String,
     },
-    /// A configuration value is wrong.
+    /// A configuration value is wrong. Where another error says why (the
+    /// TOML decoder's, a device's), `reason` says what was being done and
+    /// `source` holds that error ([`ExperimentError::config_source`]).
     #[error("config: `{key}`: {reason}")]
     Config {
         /// The key.
         key: String,
         /// What is wrong.
         reason: String,
+        /// The error behind `reason`, if another one said it.
+        #[source]
+        source: Option<Box<dyn std::error::Error + Send + Sync>>,
     },
     /// The TOML could not be parsed (unknown key, wrong type, syntax).
     #[error("{path}: {message}")]
@@ -121,4 +126,22 @@ pub enum ExperimentError {
     /// A learner error.
     #[error(transparent)]
     Nn(#[from] fmsr_nn::NnError),
+}
+
+impl ExperimentError {
+    /// [`ExperimentError::Config`]: `reason` says what is wrong with `key`.
+    pub fn config(key: impl Into<String>, reason: impl Into<String>) -> Self {
+        Self::Config { key: key.into(), reason: reason.into(), source: None }
+    }
+
+    /// [`ExperimentError::Config`] caused by another error: `reason` says
+    /// what was wrong or being done, `source` why (an error's chain, as the
+    /// `fmsr` command prints it, says both).
+    pub fn config_source(
+        key: impl Into<String>,
+        reason: impl Into<String>,
+        source: impl Into<Box<dyn std::error::Error + Send + Sync>>,
+    ) -> Self {
+        Self::Config { key: key.into(), reason: reason.into(), source: Some(source.into()) }
+    }
 }

@@ -21,10 +21,10 @@ impl ExperimentConfig {
     /// task this process has not registered; the task's own errors.
     pub fn task_envs(&self, n: usize) -> Result<Vec<AnyEnv>, ExperimentError> {
         let Some(settings) = self.task_settings() else {
-            return Err(ExperimentError::Config {
-                key: "task".into(),
-                reason: "the Shadow Hand is built from `env` on an engine (ExperimentConfig::env_config)".into(),
-            });
+            return Err(ExperimentError::config(
+                "task",
+                "the Shadow Hand is built from `env` on an engine (ExperimentConfig::env_config)",
+            ));
         };
         let entry = tasks::find(&self.task)?;
         (0..n).map(|_| entry.env(settings)).collect()
@@ -37,7 +37,7 @@ impl ExperimentConfig {
     /// [`ExperimentError::Config`] naming the section when the config's task
     /// is not `T` or its settings are not `T`'s.
     pub fn task_config<T: Task>(&self) -> Result<T::Config, ExperimentError> {
-        let bad = |reason: String| ExperimentError::Config { key: "task".into(), reason };
+        let bad = |reason: String| ExperimentError::config("task", reason);
         match self.task_settings() {
             Some(settings) if self.task == T::NAME => {
                 serde::Deserialize::deserialize(toml::Value::Table(settings.clone()))
@@ -103,7 +103,7 @@ impl ExperimentConfig {
         let spec = envs
             .first()
             .map(|e| e.spec().clone())
-            .ok_or_else(|| ExperimentError::Config { key: "trainer.envs".into(), reason: "no environment".into() })?;
+            .ok_or_else(|| ExperimentError::config("trainer.envs", "no environment"))?;
         let graph = self.graph.build(&spec)?;
         let layout = ObservationLayout::from_graph(spec.clone(), &graph)
             .map(|l| l.with_view(self.graph.actor_observation))

@@ -129,10 +129,7 @@ pub fn evaluate_task(
     source: &Source,
 ) -> Result<TaskEvalReport, ExperimentError> {
     let start = Instant::now();
-    let env = config
-        .task_envs(1)?
-        .pop()
-        .ok_or_else(|| ExperimentError::Config { key: "task".into(), reason: "no environment".into() })?;
+    let env = config.task_envs(1)?.pop().ok_or_else(|| ExperimentError::config("task", "no environment"))?;
     let features = env.spec().features.clone();
     let mut trainer = config.build_trainer(vec![env])?;
     let epochs = source.load_into(&mut trainer)?;

@@ -83,7 +83,7 @@ pub(crate) trait Entry: Send + Sync {
 
     /// The settings of `section` (absent: all defaults), every setting
     /// written out; `Err` holds what is wrong, naming the key.
-    fn resolve(&self, section: Option<&toml::Table>) -> Result<toml::Table, String>;
+    fn resolve(&self, section: Option<&toml::Table>) -> Result<toml::Table, ExperimentError>;
 
     /// An environment of resolved settings.
     fn env(&self, settings: &toml::Table) -> Result<AnyEnv, ExperimentError>;
@@ -96,13 +96,14 @@ impl<T: Task> Entry for TaskEntry<T> {
         TypeId::of::<T>()
     }
 
-    fn resolve(&self, section: Option<&toml::Table>) -> Result<toml::Table, String> {
+    fn resolve(&self, section: Option<&toml::Table>) -> Result<toml::Table, ExperimentError> {
         crate::algorithms::resolve_section(T::NAME, &T::Config::default(), section)
     }
 
     fn env(&self, settings: &toml::Table) -> Result<AnyEnv, ExperimentError> {
-        let config = T::Config::deserialize(toml::Value::Table(settings.clone()))
-            .map_err(|e| ExperimentError::Config { key: T::NAME.into(), reason: e.to_string() })?;
+        let config = T::Config::deserialize(toml::Value::Table(settings.clone())).map_err(|e| {
+            ExperimentError::config_source(T::NAME, format!("`[{}]` does not read as its settings", T::NAME), e)
+        })?;
         let env = T::env(&config).map_err(|e| ExperimentError::Context {
             what: format!("building the task `{}`", T::NAME),
             source: Box::new(e),
@@ -158,12 +159,14 @@ pub fn names() -> Vec<&'static str> {
 /// [`ExperimentError::Config`] for key `task`, listing the tasks.
 pub(crate) fn find(name: &str) -> Result<Arc<dyn Entry>, ExperimentError> {
     let registry = REGISTRY.read().unwrap_or_else(PoisonError::into_inner);
-    registry.get(name).cloned().ok_or_else(|| ExperimentError::Config {
-        key: "task".into(),
-        reason: format!(
-            "no task `{name}`; there are: {} (a task of your own crate is registered with fmsr::tasks::register)",
-            names_of(&registry).join(", ")
-        ),
+    registry.get(name).cloned().ok_or_else(|| {
+        ExperimentError::config(
+            "task",
+            format!(
+                "no task `{name}`; there are: {} (a task of your own crate is registered with fmsr::tasks::register)",
+                names_of(&registry).join(", ")
+            ),
+        )
     })
 }
 
@@ -184,7 +187,7 @@ pub(crate) fn take_section(
     value: &mut toml::Table,
     algorithm: &str,
 ) -> Result<(String, Option<toml::Table>), ExperimentError> {
-    let bad = |key: &str, reason: String| ExperimentError::Config { key: key.into(), reason };
+    let bad = |key: &str, reason: String| ExperimentError::config(key, reason);
     let name = match value.get("task") {
         None => return Ok((SHADOW_HAND.into(), None)),
         Some(toml::Value::String(name)) => name.clone(),
@@ -210,7 +213,7 @@ pub(crate) fn take_section(
         Some(toml::Value::Table(section)) => Some(section),
         Some(_) => return Err(bad(&name, "must be a table".into())),
     };
-    let settings = entry.resolve(section.as_ref()).map_err(|reason| bad(&name, reason))?;
+    let settings = entry.resolve(section.as_ref())?;
     Ok((name, Some(settings)))
 }
 
@@ -277,7 +280,7 @@ mod tests {
         let all = entry.resolve(None).unwrap();
         assert_eq!(all, toml::Table::try_from(TeamReachConfig::default()).unwrap());
         let err = entry.resolve(Some(&"warp = 1".parse().unwrap())).unwrap_err();
-        assert!(err.contains("`reach_test.warp`"), "{err}");
+        assert!(err.to_string().contains("`reach_test.warp`"), "{err}");
         let env = entry.env(&all).unwrap();
         assert_eq!(env.spec(), TeamReachConfig::default().init().unwrap().spec());
     }

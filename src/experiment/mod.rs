@@ -98,10 +98,10 @@ impl GraphConfig {
             None => {
                 let g = Graph::shadow_hand();
                 if g.nodes() != names.len() {
-                    return Err(ExperimentError::Config {
-                        key: "graph.edges".into(),
-                        reason: format!("the default graph has 6 nodes, the environment {} agents", names.len()),
-                    });
+                    return Err(ExperimentError::config(
+                        "graph.edges",
+                        format!("the default graph has 6 nodes, the environment {} agents", names.len()),
+                    ));
                 }
                 g.edges().to_vec()
             }
@@ -292,7 +292,7 @@ fn check_owners(table: &toml::Table) -> Result<(), ExperimentError> {
     let Some(method) = text(&["method"]).and_then(|m| Method::deserialize(toml::Value::String(m)).ok()) else {
         return Ok(()); // a missing or unknown method is reported by the parser
     };
-    let conflict = |key: &str, reason: String| Err(ExperimentError::Config { key: key.into(), reason });
+    let conflict = |key: &str, reason: String| Err(ExperimentError::config(key, reason));
     let reward = if method.reward() == RewardType::Sparse { "sparse" } else { "dense" };
     if let Some(r) = text(&["env", "reward"])
         && r != reward
@@ -375,7 +375,8 @@ fn key_of(method: Method) -> String {
 /// [`ExperimentError::Config`] for a device this build or this machine does
 /// not have, listing those it has.
 pub fn parse_device(device: &str) -> Result<Device, ExperimentError> {
-    let invalid = |e: fmsr_nn::NnError| ExperimentError::Config { key: "device".into(), reason: e.to_string() };
+    let invalid =
+        |e: fmsr_nn::NnError| ExperimentError::config_source("device", format!("`{device}` is not a device"), e);
     device_of(device.parse::<DeviceSpec>().map_err(invalid)?)
 }
 
@@ -385,7 +386,7 @@ pub fn parse_device(device: &str) -> Result<Device, ExperimentError> {
 /// # Errors
 /// [`ExperimentError::Config`] for key `device`, listing the devices there are.
 pub fn device_of(device: DeviceSpec) -> Result<Device, ExperimentError> {
-    device.device().map_err(|e| ExperimentError::Config { key: "device".into(), reason: e.to_string() })
+    device.device().map_err(|e| ExperimentError::config_source("device", format!("`{device}` cannot be used here"), e))
 }
 
 impl ExperimentConfig {
@@ -466,14 +467,14 @@ impl ExperimentConfig {
             return Self::from_toml(text, path);
         }
         if lookup(&value, &["env", "goal_distance"]).is_none() {
-            return Err(ExperimentError::Config {
-                key: "env.goal_distance".into(),
-                reason: format!(
+            return Err(ExperimentError::config(
+                "env.goal_distance",
+                format!(
                     "{} names no goal distance; a saved experiment names every setting (write the one it \
                      trained under, \"yaw\" for the records before the full-angle task)",
                     path.display()
                 ),
-            });
+            ));
         }
         Self::from_toml(text, path)
     }
@@ -530,23 +531,23 @@ impl ExperimentConfig {
         self.algorithm_settings()?;
         device_of(self.device)?;
         if self.networks.critic == CriticTying::Shared && self.method.shadow() {
-            return Err(ExperimentError::Config {
-                key: "networks.critic".into(),
-                reason: format!(
+            return Err(ExperimentError::config(
+                "networks.critic",
+                format!(
                     "\"shared\" gives every agent one critic, but {} gives each finger its own shadow reward; \
                      use \"shared_trunk\" (a head per agent)",
                     self.method.label()
                 ),
-            });
+            ));
         }
         if self.name.trim().is_empty() || self.name.contains(['/', '\\']) {
-            return Err(ExperimentError::Config { key: "name".into(), reason: "must be a non-empty file name".into() });
+            return Err(ExperimentError::config("name", "must be a non-empty file name"));
         }
         if !(self.eval.threshold.is_finite() && self.eval.threshold > 0.0) {
-            return Err(ExperimentError::Config { key: "eval.threshold".into(), reason: "must be positive".into() });
+            return Err(ExperimentError::config("eval.threshold", "must be positive"));
         }
         if self.eval.episodes == 0 {
-            return Err(ExperimentError::Config { key: "eval.episodes".into(), reason: "must be at least 1".into() });
+            return Err(ExperimentError::config("eval.episodes", "must be at least 1"));
         }
         Ok(())
     }
@@ -697,7 +698,7 @@ impl ExperimentConfig {
     /// ([`algorithms::register`]) or its settings are impossible.
     pub fn with_algorithm<R: ConfiguredRule>(mut self, config: &R::Config) -> Result<Self, ExperimentError> {
         let section = toml::Table::try_from(config)
-            .map_err(|e| ExperimentError::Config { key: R::NAME.into(), reason: e.to_string() })?;
+            .map_err(|e| ExperimentError::config_source(R::NAME, "the settings cannot be written as TOML", e))?;
         let settings = AlgorithmSettings::resolve(R::NAME, Some(&section))?;
         settings.get::<R>()?;
         self.algorithm = R::NAME.into();
