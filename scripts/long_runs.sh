@@ -127,8 +127,11 @@
 # the rescue point's format is checked by its reader), and the rescue point,
 # from which the driver restarts (`fmsr train --rescue`) before it goes on as
 # ever; the restart goes into the run's restarts.jsonl, the section and the
-# curves. Snapshots lost with a home count as taken when the records hold
-# their evaluations.
+# curves. What the records hold of epochs past the rescue point (their
+# snapshots' evaluations, the metrics of the loss) was trained on the lost
+# home: `resume` moves it to RECORDS/<run>/lost-<when>/, and the restored
+# run's own snapshots of those epochs are taken and evaluated. Snapshots lost
+# with a home count as taken when the records hold their evaluations.
 #
 # `lost` is for a session that finds the home gone (a machine not kept from
 # the session before: every checkpoint, replay buffer, snapshot policy and the
@@ -379,6 +382,32 @@ rescue_dir() { echo "$pretrained/$(basename "$1")$suffix/rescue"; }
 # `finish` cut off midway leaves the rescue point counted (and restorable).
 finished_out() { [ -f "$1/final/finished.env" ]; }
 
+# What the records of run $1 (its records' directory) hold of its epochs from
+# $2 on (the rescue point's EPOCH, the epochs it has trained) was trained on
+# a home now lost: the restored run trains those epochs again, otherwise.
+# The evaluations of its snapshots of those epochs, and the metrics.csv of
+# the loss, move to $1/lost-<when>/ (the section reads $1/snapshots alone),
+# so that the restored run's own snapshots of those epochs are evaluated
+# and no table mixes the two.
+set_aside_lost() {
+  local out=$1 epoch=$2 aside f k
+  aside=$out/lost-$(date -u +%Y%m%dT%H%M%SZ)
+  for f in "$out"/snapshots/epoch-*; do
+    [ -f "$f" ] || continue
+    k=$(basename "$f" | sed -n 's/^epoch-0*\([0-9][0-9]*\)\..*/\1/p')
+    [ -n "$k" ] && [ "$k" -ge "$epoch" ] || continue
+    mkdir -p "$aside/snapshots"
+    mv "$f" "$aside/snapshots/"
+  done
+  if [ -f "$out/metrics.csv" ] && [ "$(($(wc -l < "$out/metrics.csv") - 1))" -gt "$epoch" ]; then
+    mkdir -p "$aside"
+    cp "$out/metrics.csv" "$aside/metrics.csv"
+  fi
+  if [ -d "$aside" ]; then
+    echo "$(basename "$out"): the records of epochs $epoch on, trained on the lost home, set aside in $aside"
+  fi
+}
+
 # Restores recorded run $1 (its records' directory) into the home from its
 # rescue point, with this work tree's build; the driver restarts from it.
 restore_from_rescue() {
@@ -392,6 +421,7 @@ restore_from_rescue() {
   if [ -f "$out/restarts.jsonl" ]; then cp "$out/restarts.jsonl" "$dir/run/restarts.jsonl"; fi
   cp "$(rescue_dir "$out")/rescue.fmsr" "$dir/rescue.fmsr"
   cp "$(rescue_dir "$out")/rescue.env" "$dir/rescue.env"
+  set_aside_lost "$out" "$(sed -n 's/^EPOCH=//p' "$(rescue_dir "$out")/rescue.env")"
   bin=$(home_binary "$dir/config.toml")
   # Today's snapshots of the run are gone with the home; the best so far is in pretrained/.
   # keeper.env as recorded (COMMIT, STARTED: the run's), with today's binary.
