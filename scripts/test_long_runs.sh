@@ -75,7 +75,7 @@ printf '# Policies\n\n<!-- paper-stack-policies:begin (written by scripts/long_r
 "$keeper" start "$scratch/egg_dense_fmsr_is.toml" "$scratch/egg_dense.toml"
 "$keeper" finish 2> "$scratch/refused" && fail "finish ran before the runs ended"
 grep -q "not every run has ended" "$scratch/refused" || fail "finish refused for another reason: $(cat "$scratch/refused")"
-for _ in $(seq 120); do
+for _ in $(seq 600); do
   "$keeper" status > "$scratch/status"
   grep -q alive "$scratch/status" || break
   sleep 1
@@ -170,7 +170,7 @@ for run in egg_dense_fmsr_is egg_dense; do
   epoch=$(sed -n 's/^EPOCH=//p' "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/rescue/rescue.env")
   grep -q "^$run: started from its rescue point of epoch $epoch " "$scratch/resumed" || fail "resume does not say where $run restarts (epoch $epoch): $(cat "$scratch/resumed")"
 done
-for _ in $(seq 120); do
+for _ in $(seq 600); do
   "$keeper" status > "$scratch/status"
   grep -q alive "$scratch/status" || break
   sleep 1
@@ -235,7 +235,7 @@ cp "$records/egg_dense/final/test-rapier.json" "$records/egg_dense_fmsr_is/final
 grep -q "^egg_dense_fmsr_is: restored from its rescue point" "$scratch/resumed" || fail "resume did not restore the run a finish was cut off in: $(cat "$scratch/resumed")"
 grep -q "egg_dense: restored" "$scratch/resumed" && fail "resume restored a finished run: $(cat "$scratch/resumed")"
 grep -q "not in the home" "$scratch/resumed" && fail "resume calls a finished run missing: $(cat "$scratch/resumed")"
-for _ in $(seq 120); do
+for _ in $(seq 600); do
   "$keeper" status > "$scratch/status"
   grep -q alive "$scratch/status" || break
   sleep 1
