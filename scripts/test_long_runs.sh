@@ -155,7 +155,7 @@ for run in egg_dense_fmsr_is egg_dense; do
   [ -s "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/best_so_far.fmsr" ] || fail "$run: record kept no best policy so far"
 done
 mv "$FMSR_LONG_RUNS" "$scratch/home.lost"
-# A snapshot the lost home took after the rescue point (epoch 2 here): its
+# A snapshot the lost home took after the rescue point: its
 # evaluation is of a trajectory the restored run does not follow, so resume
 # sets it aside with the metrics of the loss, and keeps those of earlier epochs.
 echo '{}' > "$FMSR_LONG_RUNS_RECORDS/egg_dense/snapshots/epoch-099.test.json"
@@ -164,7 +164,8 @@ echo '{}' > "$FMSR_LONG_RUNS_RECORDS/egg_dense/snapshots/epoch-099.test.json"
 [ ! -e "$FMSR_LONG_RUNS_RECORDS/egg_dense/snapshots/epoch-099.test.json" ] || fail "resume kept a lost trajectory's snapshot among the run's"
 ls "$FMSR_LONG_RUNS_RECORDS"/egg_dense/lost-*/snapshots/epoch-099.test.json > /dev/null || fail "resume did not set the lost snapshot aside"
 ls "$FMSR_LONG_RUNS_RECORDS"/egg_dense/snapshots/epoch-000.test.json > /dev/null || fail "resume set aside a snapshot from before the rescue point"
-grep -q "^egg_dense: the records of epochs 2 on, trained on the lost home, set aside" "$scratch/resumed" || fail "resume does not say what it set aside: $(cat "$scratch/resumed")"
+epoch=$(sed -n 's/^EPOCH=//p' "$FMSR_LONG_RUNS_PRETRAINED/egg_dense_paper_stack/rescue/rescue.env")
+grep -q "^egg_dense: the records of epochs $epoch on, trained on the lost home, set aside" "$scratch/resumed" || fail "resume does not say what it set aside (epoch $epoch): $(cat "$scratch/resumed")"
 # It says where the drivers restart, not "epoch 0" (no checkpoint yet; fixed 2026-12-01).
 for run in egg_dense_fmsr_is egg_dense; do
   epoch=$(sed -n 's/^EPOCH=//p' "$FMSR_LONG_RUNS_PRETRAINED/${run}_paper_stack/rescue/rescue.env")
