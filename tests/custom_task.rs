@@ -125,6 +125,14 @@ fn a_registered_tasks_config_errors_name_their_key() {
     assert!(e.contains("`engine`"), "{e}");
     let e = err(&CONFIG.replace("task = \"team_reach\"", "task = \"no_such_task\""));
     assert!(e.contains("no_such_task") && e.contains("team_reach") && e.contains("shadow_hand"), "{e}");
+    // The graph and the shadow assignment default to the Shadow Hand's: a
+    // task names its own, or is refused at load, naming the key.
+    let e = err(&CONFIG.replace("edges = [[\"x\", \"y\"], [\"y\", \"w\"], [\"w\", \"x\"]]", ""));
+    assert!(e.contains("`graph.edges`") && e.contains("team_reach"), "{e}");
+    let start = CONFIG.find("assignment = {").unwrap();
+    let end = start + CONFIG[start..].find("\n] }").unwrap() + "\n] }".len();
+    let e = err(&format!("{}{}", &CONFIG[..start], &CONFIG[end..]));
+    assert!(e.contains("`trainer.shadow.assignment`") && e.contains("team_reach"), "{e}");
     // The Shadow Hand's experiment does not read a registered task's section.
     let e = err(&CONFIG.replace("task = \"team_reach\"", "task = \"shadow_hand\""));
     assert!(e.contains("[team_reach]"), "{e}");

@@ -540,6 +540,24 @@ impl ExperimentConfig {
                 ),
             ));
         }
+        // The defaults below are the Shadow Hand's: another task with as many
+        // agents would take them silently.
+        if !self.is_shadow_hand() && self.graph.edges.is_none() {
+            return Err(ExperimentError::config(
+                "graph.edges",
+                format!("the default is the Shadow Hand's finger ring; the task `{}` names its own edges", self.task),
+            ));
+        }
+        if !self.is_shadow_hand() && self.method.shadow() && self.trainer.shadow.assignment.is_none() {
+            return Err(ExperimentError::config(
+                "trainer.shadow.assignment",
+                format!(
+                    "the default is the paper's assignment to the Shadow Hand's fingers (eqs. 13-15); the task `{}` \
+                     names its own",
+                    self.task
+                ),
+            ));
+        }
         if self.name.trim().is_empty() || self.name.contains(['/', '\\']) {
             return Err(ExperimentError::config("name", "must be a non-empty file name"));
         }
