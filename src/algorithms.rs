@@ -31,7 +31,6 @@ use std::marker::PhantomData;
 use std::sync::{Arc, LazyLock, PoisonError, RwLock};
 
 use fmsr_nn::{AnyLearner, ConfiguredRule, LearnerParts, MaddpgRule, MasacRule, Matd3Rule, OffPolicy, Teammates};
-use serde::Deserialize;
 
 use crate::error::ExperimentError;
 
@@ -187,11 +186,7 @@ impl<R: ConfiguredRule> Entry for RuleEntry<R> {
     }
 
     fn resolve(&self, section: Option<&toml::Table>) -> Result<Arc<dyn Any + Send + Sync>, ExperimentError> {
-        let table = resolve_section(R::NAME, &R::default_config(), section)?;
-        let config = R::Config::deserialize(toml::Value::Table(table)).map_err(|e| {
-            ExperimentError::config_source(R::NAME, format!("`[{}]` does not read as its settings", R::NAME), e)
-        })?;
-        Ok(Arc::new(config))
+        Ok(Arc::new(resolve_section(R::NAME, &R::default_config(), section)?))
     }
 
     fn write(&self, config: &dyn Any) -> Result<toml::Table, ExperimentError> {
@@ -264,17 +259,16 @@ pub fn register<R: ConfiguredRule>() -> Result<(), ExperimentError> {
     }
 }
 
-/// The settings of section `[name]` (absent: all of `defaults`), every
-/// setting written out: keys it names replace the defaults, a key the
-/// settings do not have is refused, and the result must read as a `C`.
-/// The error names the key, and keeps the decoder's error.
+/// The settings of section `[name]` (absent: all of `defaults`) as a `C`:
+/// keys it names replace the defaults, and a key the settings do not have is
+/// refused. The error names the key, and keeps the decoder's error.
 pub(crate) fn resolve_section<C: serde::Serialize + serde::de::DeserializeOwned>(
     name: &str,
     defaults: &C,
     section: Option<&toml::Table>,
-) -> Result<toml::Table, ExperimentError> {
-    let written = |e| ExperimentError::config_source(name, "the settings cannot be written as TOML", e);
-    let mut merged = toml::Table::try_from(defaults).map_err(written)?;
+) -> Result<C, ExperimentError> {
+    let mut merged = toml::Table::try_from(defaults)
+        .map_err(|e| ExperimentError::config_source(name, "the defaults cannot be written as TOML", e))?;
     for (k, v) in section.into_iter().flatten() {
         if !merged.contains_key(k) {
             let mut names: Vec<_> = merged.keys().cloned().collect();
@@ -286,9 +280,8 @@ pub(crate) fn resolve_section<C: serde::Serialize + serde::de::DeserializeOwned>
         }
         merged.insert(k.clone(), v.clone());
     }
-    let config = C::deserialize(toml::Value::Table(merged))
-        .map_err(|e| ExperimentError::config_source(name, format!("`[{name}]` does not read as its settings"), e))?;
-    toml::Table::try_from(config).map_err(written)
+    C::deserialize(toml::Value::Table(merged))
+        .map_err(|e| ExperimentError::config_source(name, format!("`[{name}]` does not read as its settings"), e))
 }
 
 /// Whether `name` may name a section of an experiment: a lowercase key

@@ -97,7 +97,9 @@ impl<T: Task> Entry for TaskEntry<T> {
     }
 
     fn resolve(&self, section: Option<&toml::Table>) -> Result<toml::Table, ExperimentError> {
-        crate::algorithms::resolve_section(T::NAME, &T::Config::default(), section)
+        let config = crate::algorithms::resolve_section(T::NAME, &T::Config::default(), section)?;
+        toml::Table::try_from(config)
+            .map_err(|e| ExperimentError::config_source(T::NAME, "the settings cannot be written as TOML", e))
     }
 
     fn env(&self, settings: &toml::Table) -> Result<AnyEnv, ExperimentError> {
