@@ -9,7 +9,7 @@ use fmsr_nn::{AnyLearner, LearnerParts};
 
 use crate::error::ExperimentError;
 use crate::experiment::{ExperimentConfig, device_of};
-use crate::tasks::{self, Task};
+use crate::tasks::Task;
 
 impl ExperimentConfig {
     /// `n` environments of the registered task the config names
@@ -26,24 +26,21 @@ impl ExperimentConfig {
                 "the Shadow Hand is built from `env` on an engine (ExperimentConfig::env_config)",
             ));
         };
-        let entry = tasks::find(&self.task)?;
-        (0..n).map(|_| entry.env(settings)).collect()
+        settings.envs(n)
     }
 
-    /// Task `T`'s settings in this config (its section, every setting
-    /// written out).
+    /// Task `T`'s settings in this config, as read when it was loaded.
     ///
     /// # Errors
-    /// [`ExperimentError::Config`] naming the section when the config's task
-    /// is not `T` or its settings are not `T`'s.
-    pub fn task_config<T: Task>(&self) -> Result<T::Config, ExperimentError> {
-        let bad = |reason: String| ExperimentError::config("task", reason);
+    /// [`ExperimentError::Config`] for key `task` when the config's task is
+    /// not `T`.
+    pub fn task_config<T: Task>(&self) -> Result<&T::Config, ExperimentError> {
         match self.task_settings() {
-            Some(settings) if self.task == T::NAME => {
-                serde::Deserialize::deserialize(toml::Value::Table(settings.clone()))
-                    .map_err(|e: toml::de::Error| bad(e.to_string()))
-            }
-            _ => Err(bad(format!("the experiment's task is `{}`, not `{}`", self.task, T::NAME))),
+            Some(settings) => settings.get::<T>(),
+            None => Err(ExperimentError::config(
+                "task",
+                format!("the experiment's task is `{}`, not `{}`", self.task, T::NAME),
+            )),
         }
     }
 

@@ -40,15 +40,15 @@
 //! ([`crate::task_eval`]). The registry is one per process, as the command
 //! line that reads configs is.
 
-use std::any::TypeId;
+use std::any::{Any, TypeId};
 use std::collections::BTreeMap;
 use std::marker::PhantomData;
 use std::sync::{Arc, LazyLock, PoisonError, RwLock};
 
 use fmsr_core::env::AnyEnv;
 use fmsr_core::prelude::*;
+use serde::Serialize;
 use serde::de::DeserializeOwned;
-use serde::{Deserialize as _, Serialize};
 
 use crate::error::ExperimentError;
 
@@ -64,7 +64,7 @@ pub trait Task: 'static {
 
     /// The settings of its `[<NAME>]` section; its [`Default`] holds the
     /// value of every key the section leaves out.
-    type Config: Serialize + DeserializeOwned + Default;
+    type Config: Serialize + DeserializeOwned + Default + Send + Sync + 'static;
 
     /// Its environment; the experiment builds `trainer.envs` of them.
     type Env: Env + Send + 'static;
@@ -76,37 +76,140 @@ pub trait Task: 'static {
     fn env(config: &Self::Config) -> Result<Self::Env, <Self::Env as Env>::Error>;
 }
 
-/// What the registry keeps of one task.
+/// A registered task's settings, read once: the task's own
+/// [`Task::Config`], every setting resolved (the section's keys over the
+/// task's defaults), beside the registry's entry that reads it. An
+/// experiment keeps these from the moment it is loaded; building its
+/// environments and writing a run take them as they are, as
+/// [`crate::algorithms::AlgorithmSettings`] for its algorithm.
+#[derive(Clone)]
+pub struct TaskSettings {
+    entry: Arc<dyn Entry>,
+    config: Arc<dyn Any + Send + Sync>,
+}
+
+impl TaskSettings {
+    /// The settings of registered task `name` from its section (absent:
+    /// the task's defaults).
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] for a task not registered (key `task`),
+    /// an unknown key or a value of the wrong type, naming the key.
+    pub fn resolve(name: &str, section: Option<&toml::Table>) -> Result<Self, ExperimentError> {
+        let entry = find(name)?;
+        let config = entry.resolve(section)?;
+        Ok(Self { entry, config })
+    }
+
+    /// The task's registered name.
+    #[must_use]
+    pub fn name(&self) -> &'static str {
+        self.entry.name()
+    }
+
+    /// Task `T`'s own settings.
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] for key `task` when these are another
+    /// task's settings.
+    pub fn get<T: Task>(&self) -> Result<&T::Config, ExperimentError> {
+        match self.config.downcast_ref::<T::Config>() {
+            Some(config) if self.entry.task() == TypeId::of::<T>() => Ok(config),
+            _ => Err(ExperimentError::config(
+                "task",
+                format!("these are the settings of `{}`, not of `{}`", self.name(), T::NAME),
+            )),
+        }
+    }
+
+    /// The settings as the task's TOML section, every setting written out.
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] when a value cannot be written as TOML.
+    pub fn to_table(&self) -> Result<toml::Table, ExperimentError> {
+        self.entry.write(&*self.config)
+    }
+
+    /// `n` environments of these settings.
+    ///
+    /// # Errors
+    /// The task's own errors ([`ExperimentError::Context`]).
+    pub fn envs(&self, n: usize) -> Result<Vec<AnyEnv>, ExperimentError> {
+        (0..n).map(|_| self.entry.env(&*self.config)).collect()
+    }
+}
+
+impl PartialEq for TaskSettings {
+    /// The same task with the same settings as TOML writes them (a task's
+    /// settings need not implement `PartialEq`).
+    fn eq(&self, other: &Self) -> bool {
+        self.entry.task() == other.entry.task()
+            && matches!((self.to_table(), other.to_table()), (Ok(a), Ok(b)) if a == b)
+    }
+}
+
+impl std::fmt::Debug for TaskSettings {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut d = f.debug_struct("TaskSettings");
+        d.field("task", &self.name());
+        match self.to_table() {
+            Ok(table) => d.field("settings", &table),
+            Err(_) => d.field("settings", &"(not writable as TOML)"),
+        };
+        d.finish()
+    }
+}
+
+/// What the registry keeps of one task. Its methods take the task's
+/// settings as the [`TaskSettings`] it made hold them (`&dyn Any`: the
+/// task's `Config`).
 pub(crate) trait Entry: Send + Sync {
     /// The task's type, to tell a second registration from a clash.
     fn task(&self) -> TypeId;
 
-    /// The settings of `section` (absent: all defaults), every setting
-    /// written out; `Err` holds what is wrong, naming the key.
-    fn resolve(&self, section: Option<&toml::Table>) -> Result<toml::Table, ExperimentError>;
+    /// The task's name.
+    fn name(&self) -> &'static str;
 
-    /// An environment of resolved settings.
-    fn env(&self, settings: &toml::Table) -> Result<AnyEnv, ExperimentError>;
+    /// The settings of `section` (absent: all defaults); the error names the key.
+    fn resolve(&self, section: Option<&toml::Table>) -> Result<Arc<dyn Any + Send + Sync>, ExperimentError>;
+
+    /// The settings written out as the task's section.
+    fn write(&self, config: &dyn Any) -> Result<toml::Table, ExperimentError>;
+
+    /// An environment of these settings.
+    fn env(&self, config: &dyn Any) -> Result<AnyEnv, ExperimentError>;
 }
 
 struct TaskEntry<T>(PhantomData<fn() -> T>);
+
+impl<T: Task> TaskEntry<T> {
+    /// The task's settings; [`TaskSettings`] pairs every entry with
+    /// settings it resolved itself, so another type is a bug of this module.
+    fn config(config: &dyn Any) -> &T::Config {
+        config.downcast_ref::<T::Config>().expect("an entry is only given the settings it resolved")
+    }
+}
 
 impl<T: Task> Entry for TaskEntry<T> {
     fn task(&self) -> TypeId {
         TypeId::of::<T>()
     }
 
-    fn resolve(&self, section: Option<&toml::Table>) -> Result<toml::Table, ExperimentError> {
-        let config = crate::algorithms::resolve_section(T::NAME, &T::Config::default(), section)?;
-        toml::Table::try_from(config)
+    fn name(&self) -> &'static str {
+        T::NAME
+    }
+
+    fn resolve(&self, section: Option<&toml::Table>) -> Result<Arc<dyn Any + Send + Sync>, ExperimentError> {
+        Ok(Arc::new(crate::algorithms::resolve_section(T::NAME, &T::Config::default(), section)?))
+    }
+
+    fn write(&self, config: &dyn Any) -> Result<toml::Table, ExperimentError> {
+        toml::Table::try_from(Self::config(config))
             .map_err(|e| ExperimentError::config_source(T::NAME, "the settings cannot be written as TOML", e))
     }
 
-    fn env(&self, settings: &toml::Table) -> Result<AnyEnv, ExperimentError> {
-        let config = T::Config::deserialize(toml::Value::Table(settings.clone())).map_err(|e| {
-            ExperimentError::config_source(T::NAME, format!("`[{}]` does not read as its settings", T::NAME), e)
-        })?;
-        let env = T::env(&config).map_err(|e| ExperimentError::Context {
+    fn env(&self, config: &dyn Any) -> Result<AnyEnv, ExperimentError> {
+        let env = T::env(Self::config(config)).map_err(|e| ExperimentError::Context {
             what: format!("building the task `{}`", T::NAME),
             source: Box::new(e),
         })?;
@@ -180,15 +283,15 @@ fn names_of(registry: &Registry) -> Vec<&'static str> {
 
 /// Takes the task of an experiment's TOML `value` out of it: its name
 /// (`task`, default `shadow_hand`) and, for a registered task, its `[<name>]`
-/// section resolved (every setting written out). A registered task refuses
-/// the Shadow Hand's `[env]` and `engine`.
+/// section read as its settings. A registered task refuses the Shadow
+/// Hand's `[env]` and `engine`.
 ///
 /// # Errors
 /// [`ExperimentError::Config`] naming the key.
 pub(crate) fn take_section(
     value: &mut toml::Table,
     algorithm: &str,
-) -> Result<(String, Option<toml::Table>), ExperimentError> {
+) -> Result<(String, Option<TaskSettings>), ExperimentError> {
     let bad = |key: &str, reason: String| ExperimentError::config(key, reason);
     let name = match value.get("task") {
         None => return Ok((SHADOW_HAND.into(), None)),
@@ -198,7 +301,7 @@ pub(crate) fn take_section(
     if name == SHADOW_HAND {
         return Ok((name, None));
     }
-    let entry = find(&name)?;
+    find(&name)?;
     if name == algorithm {
         return Err(bad("task", format!("`{name}` is also the algorithm's name, and the two would share `[{name}]`")));
     }
@@ -215,7 +318,7 @@ pub(crate) fn take_section(
         Some(toml::Value::Table(section)) => Some(section),
         Some(_) => return Err(bad(&name, "must be a table".into())),
     };
-    let settings = entry.resolve(section.as_ref())?;
+    let settings = TaskSettings::resolve(&name, section.as_ref())?;
     Ok((name, Some(settings)))
 }
 
@@ -275,15 +378,27 @@ mod tests {
         assert!(err.contains("no_such_task") && err.contains("shadow_hand"), "{err}");
     }
 
+    // Guards reading a section once into the task's own type: defaults for
+    // what it leaves out, an unknown key named, the typed settings given
+    // back only as their own task's.
     #[test]
-    fn a_section_is_resolved_against_the_tasks_settings() {
+    fn a_section_is_read_as_the_tasks_settings() {
         register::<Reach>().unwrap();
-        let entry = find("reach_test").unwrap();
-        let all = entry.resolve(None).unwrap();
-        assert_eq!(all, toml::Table::try_from(TeamReachConfig::default()).unwrap());
-        let err = entry.resolve(Some(&"warp = 1".parse().unwrap())).unwrap_err();
+        let all = TaskSettings::resolve("reach_test", None).unwrap();
+        assert_eq!(all.to_table().unwrap(), toml::Table::try_from(TeamReachConfig::default()).unwrap());
+        let err = TaskSettings::resolve("reach_test", Some(&"warp = 1".parse().unwrap())).unwrap_err();
         assert!(err.to_string().contains("`reach_test.warp`"), "{err}");
-        let env = entry.env(&all).unwrap();
+        let env = all.envs(1).unwrap().pop().unwrap();
         assert_eq!(env.spec(), TeamReachConfig::default().init().unwrap().spec());
+        let mut other = toml::Table::try_from(TeamReachConfig::default()).unwrap();
+        let key = other.keys().next().unwrap().clone();
+        let changed = TaskSettings::resolve(
+            "reach_test",
+            Some(&std::iter::once((key.clone(), other.remove(&key).unwrap())).collect()),
+        );
+        assert_eq!(changed.unwrap(), all, "a section that repeats the defaults reads as the defaults");
+        assert!(all.get::<Reach>().is_ok());
+        let err = all.get::<Maddpg>().unwrap_err().to_string();
+        assert!(err.contains("reach_test") && err.contains("maddpg"), "{err}");
     }
 }

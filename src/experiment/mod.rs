@@ -67,7 +67,7 @@ use fmsr_nn::{ConfiguredRule, CriticTying, Device, DeviceSpec, NetworkConfig, Te
 
 use crate::algorithms::{self, AlgorithmSettings};
 pub use crate::stack::Stack;
-use crate::tasks::{self, SHADOW_HAND};
+use crate::tasks::{self, SHADOW_HAND, TaskSettings};
 
 /// The timestep of the Shadow Hand model (s); one env step is `substeps` of them.
 pub const MODEL_TIMESTEP: f64 = 0.002;
@@ -208,10 +208,10 @@ pub struct ExperimentConfig {
     /// ([`ExperimentConfig::task_settings`]).
     #[serde(default = "default_task", skip_serializing_if = "is_shadow_hand")]
     pub task: String,
-    /// The registered task's settings, every one written out; `None` for
-    /// the Shadow Hand.
+    /// The registered task's settings, read once through the registry;
+    /// `None` for the Shadow Hand.
     #[serde(skip)]
-    task_settings: Option<toml::Table>,
+    task_settings: Option<TaskSettings>,
     /// The learning algorithm by its registered name
     /// ([`crate::algorithms`]; default `"maddpg"`, the paper's).
     #[serde(default = "default_algorithm")]
@@ -503,7 +503,7 @@ impl ExperimentConfig {
         if let Some(settings) = &self.task_settings {
             table.remove("env");
             table.remove("engine");
-            table.insert(self.task.clone(), toml::Value::Table(settings.clone()));
+            table.insert(self.task.clone(), toml::Value::Table(settings.to_table()?));
         }
         if let Some(toml::Value::Table(env)) = table.get_mut("env") {
             env.remove("reward");
@@ -583,10 +583,11 @@ impl ExperimentConfig {
         self.task == SHADOW_HAND
     }
 
-    /// A registered task's settings (its `[<task>]` section, every setting
-    /// written out); `None` for the Shadow Hand, whose settings are `env`.
+    /// A registered task's settings (its `[<task>]` section, read once as
+    /// the task's own type); `None` for the Shadow Hand, whose settings are
+    /// `env`.
     #[must_use]
-    pub fn task_settings(&self) -> Option<&toml::Table> {
+    pub fn task_settings(&self) -> Option<&TaskSettings> {
         self.task_settings.as_ref()
     }
 
