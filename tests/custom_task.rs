@@ -1,8 +1,8 @@
 //! Guards that a task of a user's crate, registered by name, is trained,
-//! resumed, exported and evaluated by fmsr's own command from a config that
-//! says `task = "team_reach"`, with its settings written out in the run's
-//! `config.toml`; and that the Shadow Hand's keys, flags and commands are
-//! refused for it with errors that name them.
+//! resumed, exported, evaluated and reported by fmsr's own command from a
+//! config that says `task = "team_reach"`, with its settings written out in
+//! the run's `config.toml`; and that the Shadow Hand's keys, flags and
+//! commands are refused for it with errors that name them.
 
 use fmsr::experiment::ExperimentConfig;
 use fmsr::task_eval::TaskEvalReport;
@@ -99,11 +99,30 @@ fn a_registered_task_runs_through_the_fmsr_command() {
     let again: TaskEvalReport = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
     assert_eq!(again.records, report.records);
 
+    // The report: the run's row with its test and validation success, the
+    // policy file beside it as not evaluated, and the learning curves.
+    fmsr::cli::run(["fmsr", "eval", run_arg, "--set", "validation"]).unwrap();
+    let out = tmp.path().join("report");
+    fmsr::cli::run(["fmsr", "report", run_arg, policy_arg, "--out", out.to_str().unwrap()]).unwrap();
+    let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    let test = fmsr_core::interval::Interval::wilson(report.successes, report.episodes).unwrap().percent();
+    assert!(summary.contains("## team_reach") && summary.contains(&test), "{summary}");
+    assert!(summary.contains("`safe_region` rate") && summary.contains("`gentle` rate"), "{summary}");
+    assert!(summary.contains("Not in the tables") && summary.contains("reach.fmsr"), "{summary}");
+    assert!(out.join("fig3_team_reach.png").exists());
+    // A Shadow Hand run is reported apart.
+    let hand = tmp.path().join("hand");
+    std::fs::create_dir_all(&hand).unwrap();
+    let egg = ExperimentConfig::load(std::path::Path::new("configs/egg_dense_quick.toml")).unwrap();
+    std::fs::write(hand.join("config.toml"), egg.to_toml().unwrap()).unwrap();
+    let mixed = ["fmsr", "report", run_arg, hand.to_str().unwrap(), "--out", out.to_str().unwrap()];
+    let err = fmsr::cli::run(mixed).unwrap_err().to_string();
+    assert!(err.contains("apart") && err.contains("runs"), "{err}");
+
     // The Shadow Hand's flags and commands are refused, naming them.
     for (args, named) in [
         (vec!["fmsr", "eval", run_arg, "--engine", "mujoco"], "--engine"),
         (vec!["fmsr", "train", "--out", run_arg, "--resume", "--engine", "mujoco"], "--engine"),
-        (vec!["fmsr", "report", run_arg, "--out", tmp.path().join("r").to_str().unwrap()], "team_reach"),
         (vec!["fmsr", "render", run_arg], "team_reach"),
     ] {
         let err = fmsr::cli::run(args.clone()).unwrap_err().to_string();

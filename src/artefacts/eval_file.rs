@@ -458,6 +458,11 @@ pub fn write_eval(report: &EvalReport, path: &std::path::Path) -> Result<(), Exp
 
 /// The evaluation in `path`, if the file exists.
 pub fn read_eval(path: &Path) -> Result<Option<EvalReport>, ExperimentError> {
+    read_json(path)
+}
+
+/// The JSON file at `path` read as a `T`; `None` when there is none.
+pub(crate) fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<Option<T>, ExperimentError> {
     if !path.exists() {
         return Ok(None);
     }

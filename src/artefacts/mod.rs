@@ -12,6 +12,8 @@ mod policy_file;
 mod render_target;
 mod run_dir;
 
+#[cfg(feature = "report")]
+pub(crate) use self::eval_file::read_json;
 pub use self::eval_file::{
     EpisodeRecord, EpisodeTrace, EvalReport, FinalOrientation, StillBaseline, SuccessRule, read_eval, write_eval,
 };

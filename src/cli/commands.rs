@@ -582,19 +582,31 @@ fn render_for_report(runs: &[PathBuf]) {
 }
 
 pub(super) fn report(runs: &[PathBuf], out: &std::path::Path) -> Result<()> {
+    let mut tasks = Vec::new();
     for run in runs {
         let config = Source::open(run)?.config().context(|| format!("reading the run {}", run.display()))?;
         if !config.is_shadow_hand() {
+            tasks.push(run);
+        }
+    }
+    if !tasks.is_empty() {
+        if tasks.len() < runs.len() {
             return refuse(
                 "runs",
                 format!(
-                    "`fmsr report` tables the Shadow Hand's measures; {} trained the task `{}` \
-                     (`fmsr eval` measures it)",
-                    run.display(),
-                    config.task
+                    "{} trained a registered task and the others the Shadow Hand: report them apart (the \
+                     Shadow Hand's report has the paper's tables, a task's the measures every task has)",
+                    tasks[0].display()
                 ),
             );
         }
+        let records = runs
+            .iter()
+            .map(|r| crate::report::TaskRunRecord::open(r).context(|| format!("reading the run {}", r.display())))
+            .collect::<Result<Vec<_>>>()?;
+        let files = crate::report::write_task_report(&records, out)?;
+        println!("report written to {} ({} figures)", files.summary.display(), files.figures.len());
+        return Ok(());
     }
     let mut shown = StageProgress::new("report", 3);
     shown.stage(&format!("rendering test episode 0 of the {} run(s) not yet drawn", runs.len()));

@@ -170,15 +170,10 @@ fn execute(command: Command) -> Result<(), ExperimentError> {
                 carried: false,
             })?;
             let config = dir.load_config()?;
-            if !config.is_shadow_hand() {
-                println!(
-                    "run and evaluation in {} (`fmsr report` tables the Shadow Hand's runs)",
-                    dir.root().display()
-                );
-                return Ok(());
-            }
             let mut runs = vec![dir.root().to_path_buf()];
-            runs.extend(crate::artefacts::matching_policies(&args.pretrained, &config));
+            if config.is_shadow_hand() {
+                runs.extend(crate::artefacts::matching_policies(&args.pretrained, &config));
+            }
             report(&runs, &dir.root().join("report"))?;
             if runs.len() > 1 {
                 println!(

@@ -45,14 +45,23 @@ impl Chosen {
 /// configuration, in the order given) that have a test evaluation.
 #[must_use]
 pub fn choose<'a>(candidates: &[&'a RunRecord]) -> Option<(&'a RunRecord, &'a EvalReport, Chosen)> {
-    let evaluated: Vec<(&RunRecord, &EvalReport)> =
-        candidates.iter().filter_map(|r| r.eval.as_ref().map(|e| (*r, e))).collect();
+    choose_by(candidates, |r| r.eval.as_ref(), |r| r.validation.as_ref().map(|v| v.success_rate))
+}
+
+/// The rule of [`choose`] for any kind of run: among `candidates` with a
+/// test evaluation (`test`), the best by validation success (`validation`;
+/// the first of equal scores), or the first given when one has none.
+pub(crate) fn choose_by<'a, R, E>(
+    candidates: &[&'a R],
+    test: impl Fn(&'a R) -> Option<&'a E>,
+    validation: impl Fn(&R) -> Option<f64>,
+) -> Option<(&'a R, &'a E, Chosen)> {
+    let evaluated: Vec<(&R, &E)> = candidates.iter().filter_map(|r| test(r).map(|e| (*r, e))).collect();
     match evaluated.as_slice() {
         [] => None,
         [(r, e)] => Some((r, e, Chosen::Only)),
         [(first, first_eval), ..] => {
-            let scores: Option<Vec<f64>> =
-                evaluated.iter().map(|(r, _)| r.validation.as_ref().map(|v| v.success_rate)).collect();
+            let scores: Option<Vec<f64>> = evaluated.iter().map(|(r, _)| validation(r)).collect();
             match scores {
                 Some(scores) => {
                     // The first of equal scores: a later seed must do better to be chosen.

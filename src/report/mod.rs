@@ -32,6 +32,9 @@ use fmsr_core::trainer::EpochStats;
 
 pub mod choice;
 mod links;
+mod task;
+
+pub use task::{TaskRunRecord, write_task_report};
 
 use crate::artefacts::{EvalReport, PolicyFile, RenderTarget, RunDir, Source, read_eval};
 use crate::experiment::{Engine, EpisodeSet, ExperimentConfig, ExperimentError, RunKey};
@@ -253,8 +256,8 @@ fn plot_err<E: std::fmt::Display>(path: &Path) -> impl Fn(E) -> ExperimentError 
 }
 
 /// The distinct configurations among `runs`, in the paper's method order.
-fn configurations(runs: &[&RunRecord]) -> Vec<Configuration> {
-    let mut out: Vec<Configuration> = runs.iter().map(|r| r.configuration()).collect();
+fn configurations(of: impl IntoIterator<Item = Configuration>) -> Vec<Configuration> {
+    let mut out: Vec<Configuration> = of.into_iter().collect();
     out.sort_by_key(Configuration::order);
     out.dedup();
     out
@@ -272,13 +275,18 @@ fn configuration_color(c: &Configuration, all: &[Configuration]) -> RGBColor {
     RGBColor(dim(r), dim(g), dim(b))
 }
 
-/// Learning curves of one task: success rate per epoch per method, mean over
-/// seeds with the min-max band.
-fn plot_learning_curves(task: &str, runs: &[&RunRecord], path: &Path) -> Result<(), ExperimentError> {
+/// Learning curves of one task: success rate per epoch per configuration
+/// (each run's curve beside its configuration), mean over seeds with the
+/// min-max band.
+fn plot_learning_curves(
+    task: &str,
+    runs: &[(Configuration, &[EpochStats])],
+    path: &Path,
+) -> Result<(), ExperimentError> {
     let err = plot_err(path);
     let root = BitMapBackend::new(path, (900, 560)).into_drawing_area();
     root.fill(&WHITE).map_err(&err)?;
-    let epochs = runs.iter().map(|r| r.metrics.len()).max().unwrap_or(1).max(2);
+    let epochs = runs.iter().map(|(_, m)| m.len()).max().unwrap_or(1).max(2);
     let mut chart = ChartBuilder::on(&root)
         .caption(format!("Fig. 3 - {task}: success rate during training"), ("sans-serif", 24))
         .margin(15)
@@ -292,12 +300,12 @@ fn plot_learning_curves(task: &str, runs: &[&RunRecord], path: &Path) -> Result<
         .y_desc("success rate (per-epoch evaluation episodes, training threshold)")
         .draw()
         .map_err(&err)?;
-    let all = configurations(runs);
+    let all = configurations(runs.iter().map(|(c, _)| c.clone()));
     for c in &all {
-        let seeds: Vec<&&RunRecord> = runs.iter().filter(|r| r.configuration() == *c).collect();
+        let seeds: Vec<&[EpochStats]> = runs.iter().filter(|(o, _)| o == c).map(|(_, m)| *m).collect();
         // Mean and spread over the runs that reached each epoch.
-        let n = seeds.iter().map(|r| r.metrics.len()).max().unwrap_or(0);
-        let at = |e: usize| seeds.iter().filter_map(|r| r.metrics.get(e).map(|m| m.success_rate)).collect::<Vec<_>>();
+        let n = seeds.iter().map(|m| m.len()).max().unwrap_or(0);
+        let at = |e: usize| seeds.iter().filter_map(|m| m.get(e).map(|m| m.success_rate)).collect::<Vec<_>>();
         let mean: Vec<(f64, f64)> = (0..n)
             .map(|e| {
                 let v = at(e);
@@ -440,7 +448,7 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
     let mut distances = std::collections::BTreeSet::new();
     for (task, task_runs) in &by_task {
         let mut chosen = Vec::new();
-        for configuration in configurations(task_runs) {
+        for configuration in configurations(task_runs.iter().map(|r| r.configuration())) {
             let candidates: Vec<&RunRecord> =
                 task_runs.iter().copied().filter(|r| r.configuration() == configuration).collect();
             if let Some((r, e, how)) = choice::choose(&candidates) {
@@ -462,7 +470,9 @@ pub fn write_report(runs: &[RunRecord], out: &Path) -> Result<ReportFiles, Exper
         }
         let best: Vec<(&RunRecord, &EvalReport)> = chosen.iter().map(|(r, e, _)| (*r, *e)).collect();
         let fig3 = out.join(format!("fig3_{task}.png"));
-        plot_learning_curves(task, task_runs, &fig3)?;
+        let curves: Vec<(Configuration, &[EpochStats])> =
+            task_runs.iter().map(|r| (r.configuration(), r.metrics.as_slice())).collect();
+        plot_learning_curves(task, &curves, &fig3)?;
         files.figures.push(fig3);
         if !best.is_empty() {
             let fig4 = out.join(format!("fig4_{task}.png"));

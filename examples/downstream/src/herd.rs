@@ -192,7 +192,7 @@ episodes = 20
 "#;
 
 /// Registers the task (and `fixed_sac`, `sac.rs`), then trains, resumes,
-/// exports and evaluates a run of it with fmsr's command in `dir`.
+/// exports, evaluates and reports a run of it with fmsr's command in `dir`.
 ///
 /// # Errors
 /// Registration, the command's errors, or a run that does not hold what it should.
@@ -208,6 +208,12 @@ pub fn run_by_name(dir: &Path) -> Result<()> {
     fmsr(&["eval", &arg(&run)])?;
     fmsr(&["export", &arg(&run), "--out", &arg(&policy)])?;
     fmsr(&["eval", &arg(&policy)])?;
+    let report_dir = dir.join("herd-report");
+    fmsr(&["report", &arg(&run), "--out", &arg(&report_dir)])?;
+    let summary = std::fs::read_to_string(report_dir.join("summary.md"))?;
+    if !summary.contains("## herd") || !report_dir.join("fig3_herd.png").exists() {
+        bail!("the herd report has no section or learning curves of the task `herd`");
+    }
     let written = std::fs::read_to_string(run.join("config.toml"))?;
     let report: fmsr::task_eval::TaskEvalReport = serde_json::from_slice(&std::fs::read(run.join("task-eval.json"))?)?;
     if !written.contains("task = \"herd\"")
@@ -220,7 +226,7 @@ pub fn run_by_name(dir: &Path) -> Result<()> {
         bail!("the herd run's config.toml or task-eval.json do not hold the fixed_sac herd run of 2 epochs");
     }
     println!(
-        "fmsr's command trained, resumed, exported and evaluated this crate's herd by name with fixed_sac: \
+        "fmsr's command trained, resumed, exported, evaluated and reported this crate's herd by name with fixed_sac: \
          success {}/{} (the zero action {}/{})",
         report.successes, report.episodes, report.still_successes, report.episodes
     );
