@@ -146,7 +146,7 @@ pub fn write_task_report(runs: &[TaskRunRecord], out: &Path) -> Result<ReportFil
             let Some((r, e, how)) = choice::choose_by(
                 &candidates,
                 |r| r.eval.as_ref(),
-                |r| r.validation.as_ref().map(|v| v.successes as f64 / v.episodes.max(1) as f64),
+                |r| r.validation.as_ref().and_then(TaskEvalReport::success).map(|i| i.estimate),
             ) else {
                 continue;
             };
@@ -162,8 +162,8 @@ pub fn write_task_report(runs: &[TaskRunRecord], out: &Path) -> Result<ReportFil
                 e.drops,
                 e.episodes
             );
-            for (name, _) in features.iter().enumerate() {
-                let rate = e.feature_rates.get(name).map_or_else(|| "-".into(), |r| format!("{r:.3}"));
+            for i in 0..features.len() {
+                let rate = e.feature_rates.get(i).map_or_else(|| "-".into(), |r| format!("{r:.3}"));
                 let _ = write!(summary, " {rate} |");
             }
             summary.push('\n');
