@@ -38,13 +38,20 @@ pub enum ExperimentError {
         #[source]
         source: Option<Box<dyn std::error::Error + Send + Sync>>,
     },
-    /// The TOML could not be parsed (unknown key, wrong type, syntax).
+    /// A file could not be parsed: a TOML experiment (unknown key, wrong
+    /// type, syntax), a policy file, a run's JSON records, an event file.
+    /// Where a decoder said why (TOML's, JSON's, the policy file's framing),
+    /// `message` says what was being read and `source` holds that error,
+    /// which names the key and line ([`ExperimentError::parse_source`]).
     #[error("{path}: {message}")]
     Parse {
         /// The file.
         path: PathBuf,
-        /// The parser's message, which names the key and line.
+        /// What is wrong, or what was being read when `source` failed.
         message: String,
+        /// The decoder's error behind `message`, if one said it.
+        #[source]
+        source: Option<Box<dyn std::error::Error + Send + Sync>>,
     },
     /// Reading or writing a run file failed.
     #[error("{path}: {source}")]
@@ -143,5 +150,55 @@ impl ExperimentError {
         source: impl Into<Box<dyn std::error::Error + Send + Sync>>,
     ) -> Self {
         Self::Config { key: key.into(), reason: reason.into(), source: Some(source.into()) }
+    }
+
+    /// [`ExperimentError::Parse`]: `message` says what is wrong with the file at `path`.
+    pub fn parse(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
+        Self::Parse { path: path.into(), message: message.into(), source: None }
+    }
+
+    /// [`ExperimentError::Parse`] caused by a decoder's error: `message` says
+    /// what was being read, `source` what the decoder found (with its key
+    /// and line, where it knows them).
+    pub fn parse_source(
+        path: impl Into<PathBuf>,
+        message: impl Into<String>,
+        source: impl Into<Box<dyn std::error::Error + Send + Sync>>,
+    ) -> Self {
+        Self::Parse { path: path.into(), message: message.into(), source: Some(source.into()) }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::error::Error as _;
+    use std::path::Path;
+
+    use super::ExperimentError;
+    use crate::experiment::ExperimentConfig;
+
+    // Guards config errors that keep the decoder's error: an unknown key or
+    // a wrong type in a TOML experiment is an `ExperimentError::Parse`
+    // naming the file, whose source is TOML's own error, with the key and
+    // its line, and not a copy of its text.
+    #[test]
+    fn parse_errors_keep_the_decoders_error() {
+        let text = std::fs::read_to_string("configs/egg_dense_fmsr_is.toml").unwrap();
+        let path = Path::new("bad.toml");
+        for (bad, names) in [
+            (text.replace("[trainer]\n", "[trainer]\nseeds = 3\n"), "seeds"),
+            (text.replace("[trainer]\n", "[trainer]\nepochs = \"many\"\n"), "epochs"),
+            (format!("{text}\n[trainer\n"), "line"),
+        ] {
+            let err = ExperimentConfig::from_toml(&bad, path).unwrap_err();
+            let ExperimentError::Parse { path: at, source: Some(source), .. } = &err else {
+                panic!("not a parse error with its source: {err:?}")
+            };
+            assert_eq!(at, path);
+            assert!(source.downcast_ref::<toml::de::Error>().is_some(), "{source:?}");
+            assert!(source.to_string().contains(names), "{source}");
+            assert!(err.source().is_some_and(|s| s.to_string() == source.to_string()));
+            assert!(!err.to_string().contains(&source.to_string()), "said twice: {err}");
+        }
     }
 }

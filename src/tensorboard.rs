@@ -181,7 +181,7 @@ impl EventWriter {
 /// record, a CRC mismatch or an undecodable event.
 pub fn read_events(path: &Path) -> Result<Vec<Event>, ExperimentError> {
     let bytes = std::fs::read(path).map_err(|source| ExperimentError::Io { path: path.into(), source })?;
-    let bad = |message: String| ExperimentError::Parse { path: path.into(), message };
+    let bad = |message: String| ExperimentError::parse(path, message);
     let mut rest = &bytes[..];
     let mut events = Vec::new();
     while !rest.is_empty() {
@@ -200,7 +200,10 @@ pub fn read_events(path: &Path) -> Result<Vec<Event>, ExperimentError> {
         if word(take(&mut rest, 4)?) != u64::from(masked_crc(&body)) {
             return Err(bad(format!("CRC mismatch in record {}", events.len())));
         }
-        events.push(Event::decode(&body[..]).map_err(|e| bad(e.to_string()))?);
+        events.push(
+            Event::decode(&body[..])
+                .map_err(|e| ExperimentError::parse_source(path, format!("event {}", events.len()), e))?,
+        );
     }
     Ok(events)
 }

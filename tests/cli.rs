@@ -223,7 +223,7 @@ fn bad_policy_files_are_errors_naming_what_is_wrong() {
     };
     let mut newer = good.clone();
     newer[8..12].copy_from_slice(&3u32.to_le_bytes());
-    check(&newer, "policy file format version 3, this build reads version 2: the file was written by a newer fmsr");
+    check(&newer, "policy file: format version 3, this build reads version 2: the file was written by a newer fmsr");
     check(&good[..good.len() / 2], "checksum mismatch");
     let mut flipped = good.clone();
     flipped[good.len() - 10] ^= 4;

@@ -469,7 +469,7 @@ pub(crate) fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<O
     let bytes = std::fs::read(path).map_err(|source| ExperimentError::Io { path: path.into(), source })?;
     serde_json::from_slice(&bytes)
         .map(Some)
-        .map_err(|e| ExperimentError::Parse { path: path.into(), message: e.to_string() })
+        .map_err(|e| ExperimentError::parse_source(path, "not a JSON record of this kind", e))
 }
 
 #[cfg(test)]

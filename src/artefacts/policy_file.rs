@@ -200,26 +200,26 @@ impl PolicyFile {
     /// another format version, a checksum mismatch, or a part that does not
     /// parse (the configuration is checked as `fmsr train` checks it).
     pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<Self, ExperimentError> {
-        let parse = |message: String| ExperimentError::Parse { path: path.to_path_buf(), message };
         let body: Body = persist::decode(&FORMAT, bytes).map_err(|e| match e {
-            FormatError::Version { .. } => parse(format!("policy file {e}")),
-            FormatError::Magic { .. } => parse("not an fmsr policy file (bad magic)".into()),
-            other => parse(format!("policy file: {other}")),
+            FormatError::Magic { .. } => ExperimentError::parse(path, "not an fmsr policy file (bad magic)"),
+            other => ExperimentError::parse_source(path, "policy file", other),
         })?;
-        let json = |what: &str, text: &str| parse(format!("policy file's {what}: {text}"));
+        let json = |what: &str, e: Box<dyn std::error::Error + Send + Sync>| {
+            ExperimentError::parse_source(path, format!("policy file's {what}"), e)
+        };
         let config = ExperimentConfig::from_saved_toml(&body.config, path)?;
-        let provenance = serde_json::from_str(&body.provenance).map_err(|e| json("provenance", &e.to_string()))?;
+        let provenance = serde_json::from_str(&body.provenance).map_err(|e| json("provenance", e.into()))?;
         let metrics = body
             .metrics
             .iter()
-            .map(|m| serde_json::from_str(m).map_err(|e| json("metrics", &e.to_string())))
+            .map(|m| serde_json::from_str(m).map_err(|e| json("metrics", e.into())))
             .collect::<Result<_, _>>()?;
         let evals = body
             .evals
             .iter()
-            .map(|m| serde_json::from_str(m).map_err(|e| json("evaluation", &e.to_string())))
+            .map(|m| serde_json::from_str(m).map_err(|e| json("evaluation", e.into())))
             .collect::<Result<_, _>>()?;
-        let epochs = usize::try_from(body.epochs).map_err(|e| json("epochs", &e.to_string()))?;
+        let epochs = usize::try_from(body.epochs).map_err(|e| json("epochs", e.into()))?;
         Ok(Self { config, provenance, metrics, evals, epochs, env_steps: body.env_steps, policy: body.policy })
     }
 

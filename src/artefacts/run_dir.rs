@@ -80,7 +80,9 @@ impl RunDir {
         }
         let text =
             std::fs::read_to_string(&path).map_err(|source| ExperimentError::Io { path: path.clone(), source })?;
-        serde_json::from_str(&text).map(Some).map_err(|e| ExperimentError::Parse { path, message: e.to_string() })
+        serde_json::from_str(&text)
+            .map(Some)
+            .map_err(|e| ExperimentError::parse_source(path, "not a run's provenance", e))
     }
 
     /// `metrics.jsonl`.
@@ -184,8 +186,7 @@ impl RunDir {
             .filter(|l| !l.trim().is_empty())
             .enumerate()
             .map(|(i, l)| {
-                serde_json::from_str(l)
-                    .map_err(|e| ExperimentError::Parse { path: path.clone(), message: format!("line {}: {e}", i + 1) })
+                serde_json::from_str(l).map_err(|e| ExperimentError::parse_source(&path, format!("line {}", i + 1), e))
             })
             .collect()
     }

@@ -397,8 +397,9 @@ impl ExperimentConfig {
     /// # Errors
     /// [`ExperimentError::Parse`] or [`ExperimentError::Config`].
     pub fn from_toml(text: &str, path: &Path) -> Result<Self, ExperimentError> {
-        let parse_err = |message: String| ExperimentError::Parse { path: path.to_path_buf(), message };
-        let mut value: toml::Table = toml::from_str(text).map_err(|e| parse_err(e.to_string()))?;
+        let parse_err = |message: String| ExperimentError::parse(path, message);
+        let mut value: toml::Table =
+            toml::from_str(text).map_err(|e| ExperimentError::parse_source(path, "not a TOML experiment", e))?;
         if value.contains_key("ddpg") {
             return Err(parse_err(
                 "`[ddpg]` was split: network sizes, learning rates, normalisers and threads are in `[networks]`, \
@@ -421,7 +422,9 @@ impl ExperimentConfig {
             Some(_) => return Err(parse_err(format!("`{algorithm}` must be a table"))),
         };
         let settings = AlgorithmSettings::resolve(&algorithm, section.as_ref())?;
-        for (key, defaults) in burn_sections().map_err(|e| parse_err(e.to_string()))? {
+        for (key, defaults) in
+            burn_sections().map_err(|e| ExperimentError::parse_source(path, "writing the defaults of `networks`", e))?
+        {
             let Some(section) = value.get_mut(key) else { continue };
             let table = section.as_table().ok_or_else(|| parse_err(format!("`{key}` must be a table")))?;
             let mut merged = defaults;
@@ -435,8 +438,8 @@ impl ExperimentConfig {
             }
             *section = toml::Value::Table(merged);
         }
-        let mut config =
-            ExperimentConfig::deserialize(toml::Value::Table(value)).map_err(|e| parse_err(e.to_string()))?;
+        let mut config = ExperimentConfig::deserialize(toml::Value::Table(value))
+            .map_err(|e| ExperimentError::parse_source(path, "not an experiment", e))?;
         config.algorithm_settings.insert(algorithm, settings);
         config.task_settings = task_settings;
         if let Some(d) = config.stack.goal_distance() {
@@ -461,8 +464,8 @@ impl ExperimentConfig {
     /// # Errors
     /// As [`Self::from_toml`].
     pub fn from_saved_toml(text: &str, path: &Path) -> Result<Self, ExperimentError> {
-        let parse_err = |message: String| ExperimentError::Parse { path: path.to_path_buf(), message };
-        let value: toml::Table = toml::from_str(text).map_err(|e| parse_err(e.to_string()))?;
+        let value: toml::Table =
+            toml::from_str(text).map_err(|e| ExperimentError::parse_source(path, "not a TOML experiment", e))?;
         if value.get("task").and_then(toml::Value::as_str).is_some_and(|t| t != SHADOW_HAND) {
             return Self::from_toml(text, path);
         }
