@@ -7,7 +7,11 @@ from the first arm; then where the test episodes ended (the median final
 full angle with its parts about the vertical and the tilt from it, the
 share that ended within the run's training threshold without a drop, the
 mean total contact), per run and pooled, and the first arm's difference in
-that share.
+that share; last, the learning curves: each epoch's evaluation at the
+training threshold (`metrics.csv`'s `success_rate`, `trainer.eval_episodes`
+deterministic episodes an epoch) over every epoch and over the last ten,
+and the first epoch at 50 % or more, per run and pooled, with the first
+arm's difference over the last ten epochs.
 
     scripts/compare_arms.py "Dense+FMSR+IS=RUN_S0,RUN_S1" "Dense=RUN_S0,RUN_S1"
 
@@ -24,8 +28,10 @@ chance, not the spread between seeds, so the per-seed rows are printed above
 the pooled one and should be read with it.
 """
 
+import csv
 import json
 import sys
+import tomllib
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -129,6 +135,8 @@ def main(argv):
         print(f"- {base_name} minus {name}: " + "; ".join(parts))
     print()
     ended_table(arms, engine)
+    print()
+    curve_table(arms)
 
 
 def ended(records, within):
@@ -178,6 +186,59 @@ def ended_table(arms, engine):
     base_name, base = pooled[0]
     lines = [f"- {base_name} minus {name}: {label} {pts(newcombe(base['precise'], p['precise']))}"
              for name, p in pooled[1:] if base["precise"] and p["precise"]]
+    if lines:
+        print()
+        print("\n".join(lines))
+
+
+LAST = 10
+
+
+def curve(d):
+    """A run's per-epoch evaluations at its training threshold: (successes per epoch, episodes an epoch), the
+    successes rounded from `metrics.csv`'s rates; None without `metrics.csv` or `trainer.eval_episodes`."""
+    try:
+        n = int(tomllib.loads((d / "config.toml").read_text())["trainer"]["eval_episodes"])
+        with open(d / "metrics.csv", newline="") as f:
+            rows = list(csv.DictReader(f))
+    except (OSError, KeyError, TypeError, ValueError, tomllib.TOMLDecodeError):
+        return None
+    if not rows or [int(r["epoch"]) for r in rows] != list(range(len(rows))):
+        sys.exit(f"{d}/metrics.csv: the epochs are not 0, 1, 2, ... once each")
+    return [round(float(r["success_rate"]) * n) for r in rows], n
+
+
+def curve_cells(curves):
+    """Mean over every epoch and over the last ten (pooled over `curves`' runs, Wilson intervals on the episodes),
+    the first epoch at 50 % or more of each run, and the last ten's counts."""
+    every = (sum(sum(k) for k, _ in curves), sum(len(k) * n for k, n in curves))
+    last = (sum(sum(k[-LAST:]) for k, _ in curves), sum(len(k[-LAST:]) * n for k, n in curves))
+    first = ", ".join(next((str(e) for e, x in enumerate(k) if x >= n / 2), "never") for k, n in curves)
+    epochs = "/".join(sorted({str(len(k)) for k, _ in curves}))
+    return f"{epochs} | {rate(every)} | {rate(last)} | {first}", last
+
+
+def curve_table(arms):
+    """The learning curves of each run and each arm (seeds pooled), and the first arm's difference over the last
+    ten epochs (the pooled interval counts episodes, not seeds)."""
+    print("Learning curves (each epoch's evaluation at the training threshold, deterministic episodes; the mean "
+          f"over every epoch and over the last {LAST}; the first epoch at 50 % or more):")
+    print()
+    print(f"| Arm | Run | Epochs | Every epoch | Last {LAST} epochs | First epoch at 50 % |")
+    print("|---|---|---|---|---|---|")
+    pooled = []
+    for name, rows in arms:
+        curves = []
+        for d, _ in rows:
+            c = curve(d)
+            print(f"| {name} | `{d.name}` | " + (curve_cells([c])[0] if c else "— | — | — | —") + " |")
+            curves += [c] if c else []
+        if len(curves) > 1:
+            print(f"| **{name}, {len(curves)} seeds pooled** | | {curve_cells(curves)[0]} |")
+        pooled.append((name, curve_cells(curves)[1] if curves else None))
+    base_name, base = pooled[0]
+    lines = [f"- {base_name} minus {name}: last {LAST} epochs {pts(newcombe(wilson(*base), wilson(*p)))}"
+             for name, p in pooled[1:] if base and p]
     if lines:
         print()
         print("\n".join(lines))

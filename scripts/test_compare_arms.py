@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Regression test: `scripts/compare_arms.py`'s table of where the test
-episodes ended counts what it says.
+"""Regression test: `scripts/compare_arms.py`'s tables of where the test
+episodes ended and of the learning curves count what they say.
 
 Guards the table added on 2026-12-02 to set the lite arms' final tilt beside
 their contacts (does the arm that keeps more sensors in touch end more
@@ -84,4 +84,40 @@ with tempfile.TemporaryDirectory() as tmp:
     text, rows = compare(f"A={a0}", f"C={c0}")
     if "minus C: within" in text or rows["C/`c_s0`"][3] != "—" or rows["A/`a_s0`"][3] != "—":
         fail(f"runs of different thresholds got a share:\n{text}")
-print("ok: compare_arms.py's table of where the episodes ended")
+
+    # The learning curves. Two seeds of arm D over 12 epochs of 10 episodes: seed 0 reaches 5/10 at epoch 3 and
+    # stays there; seed 1 gets 1/10 every epoch. Arm E: nothing.
+    def with_curve(d, successes, episodes=10):
+        (d / "config.toml").write_text(f"[env]\nsuccess_threshold = 0.1\n\n[trainer]\neval_episodes = {episodes}\n")
+        lines = ["epoch,goal_distance,success_rate"] + [f"{e},full,{k / episodes}" for e, k in enumerate(successes)]
+        (d / "metrics.csv").write_text("\n".join(lines) + "\n")
+        return d
+    d0 = with_curve(run_dir(base, "d_s0", [0.1]), [0, 0, 2, 5] + [5] * 8)
+    d1 = with_curve(run_dir(base, "d_s1", [0.1]), [1] * 12)
+    e0 = with_curve(run_dir(base, "e_s0", [0.1]), [0] * 12)
+    text = subprocess.run([sys.executable, str(root / "scripts/compare_arms.py"), f"D={d0},{d1}", f"E={e0}"],
+                          capture_output=True, text=True).stdout
+    curves = {}
+    for line in text.split("Learning curves", 1)[-1].splitlines():
+        cells = [c.strip() for c in line.split("|")[1:-1]]
+        if len(cells) == 6 and cells[0] not in ("Arm", "---"):
+            curves[f"{cells[0]}/{cells[1]}"] = cells
+    row = curves.get("D/`d_s0`")
+    if row is None or not row[3].endswith("(47/120)") or not row[4].endswith("(47/100)") or row[5] != "3":
+        fail(f"seed 0 of D: 47 of 120 episodes, 47 of the last 100 (epochs 2-11), 50 % first at epoch 3: {row}\n{text}")
+    row = curves.get("**D, 2 seeds pooled**/")
+    if row is None or not row[3].endswith("(59/240)") or not row[4].endswith("(57/200)") or row[5] != "3, never":
+        fail(f"D's seeds pooled: 59 of 240, 57 of the last 200, first epochs 3 and never: {row}\n{text}")
+    diff = next((line for line in text.splitlines() if line.startswith("- D minus E: last 10 epochs")), None)
+    if diff is None or "+28 pts" not in diff:
+        fail(f"the difference over the last 10 epochs is not D's 57/200 minus E's 0/100: {diff}")
+    # Epochs out of order or repeated (a restart's lost rows kept): refused, not read.
+    (d1 / "metrics.csv").write_text("epoch,goal_distance,success_rate\n0,full,0\n2,full,0\n")
+    out = subprocess.run([sys.executable, str(root / "scripts/compare_arms.py"), f"D={d1}"], capture_output=True, text=True)
+    if out.returncode == 0 or "not 0, 1, 2" not in out.stderr:
+        fail(f"a metrics.csv without epoch 1 was read: {out.stderr}")
+    (d1 / "metrics.csv").write_text("epoch,goal_distance,success_rate\n0,full,0\n1,full,0\n1,full,0.5\n")
+    out = subprocess.run([sys.executable, str(root / "scripts/compare_arms.py"), f"D={d1}"], capture_output=True, text=True)
+    if out.returncode == 0 or "not 0, 1, 2" not in out.stderr:
+        fail(f"a metrics.csv with epoch 1 twice was read: {out.stderr}")
+print("ok: compare_arms.py's tables of where the episodes ended and of the learning curves")
