@@ -139,14 +139,13 @@ def main(argv):
     curve_table(arms)
 
 
-def ended(records, within):
+def ended(records, within, distance):
     """Where episodes `records` ended: `final_angles`' medians and interval, the count within the threshold
-    without a drop (`close`, None without a threshold or full angles), and the mean total contact (None unless
-    every record has one)."""
-    p = final_angles({"records": records}, within)
+    without a drop (`close`, None without a threshold or full angles; by gym's distance where `distance` is
+    "gym", as `final_angles` counts), and the mean total contact (None unless every record has one)."""
+    p = final_angles({"records": records, "goal_distance": distance}, within)
     p["episodes"] = len(records)
-    p["close"] = None if p["precise"] is None else sum(
-        1 for r in records if r["orientation"]["full_angle"] < within and not r.get("dropped"))
+    p["close"] = None if p["precise"] is None else round(p["precise"][0] * len(records))
     contacts = [r["total_contacts"] for r in records if r.get("total_contacts") is not None]
     p["contact"] = sum(contacts) / len(contacts) if contacts and len(contacts) == len(records) else None
     return p
@@ -168,8 +167,11 @@ def ended_table(arms, engine):
     """Where each run's and each arm's (seeds pooled) test episodes ended, and the first arm's difference in the
     share within the training threshold. The runs must share that threshold, else the shares are left out."""
     thresholds = {r["within"] for _, rows in arms for _, r in rows}
+    distance = arms[0][1][0][1]["distance"]
     within = thresholds.pop() if len(thresholds) == 1 else None
     label = f"within {within:g} rad" if within is not None else "within the training threshold (the runs' differ)"
+    if distance == "gym":
+        label += " by gym's distance"
     print(f"Where the test episodes ended ({engine}; the median final angle over every episode, with the medians "
           f"of its parts; {label} and not dropped; the mean total contact of an episode):")
     print()
@@ -178,11 +180,11 @@ def ended_table(arms, engine):
     pooled = []
     for name, rows in arms:
         for d, r in rows:
-            print(f"| {name} | `{d.name}` | {ended_cells(ended(r['records'], within))} |")
+            print(f"| {name} | `{d.name}` | {ended_cells(ended(r['records'], within, distance))} |")
         records = [e for _, r in rows for e in r["records"]]
         if len(rows) > 1:
-            print(f"| **{name}, {len(rows)} seeds pooled** | | {ended_cells(ended(records, within))} |")
-        pooled.append((name, ended(records, within)))
+            print(f"| **{name}, {len(rows)} seeds pooled** | | {ended_cells(ended(records, within, distance))} |")
+        pooled.append((name, ended(records, within, distance)))
     base_name, base = pooled[0]
     lines = [f"- {base_name} minus {name}: {label} {pts(newcombe(base['precise'], p['precise']))}"
              for name, p in pooled[1:] if base["precise"] and p["precise"]]

@@ -141,14 +141,17 @@ def final_angles(e, within):
     the median final angle, its parts' medians (the error about the vertical and the tilt from it, when recorded),
     and the Wilson interval of the episodes that ended within `within` rad of the goal (the run's training
     threshold, `training_threshold`) without a drop. All None for an evaluation whose records hold no full angle
-    (before 2026-11-27); `precise` None also when `within` is None."""
+    (before 2026-11-27); `precise` None also when `within` is None. Under gym's goal distance (`goal_distance =
+    "gym"`, the paper's stack) an episode is within by gym's own distance, its `final_error`: one that ends at the
+    goal's double cover (the object turned the short way) is a small angle from the goal but 2 pi from it by gym."""
     orient = [r.get("orientation", {}) for r in e.get("records", [])]
     angles = [o.get("full_angle") for o in orient]
     if not angles or any(a is None for a in angles):
         return {"median_angle": None, "median_yaw": None, "median_tilt": None, "precise": None, "within": within}
     part = lambda key: None if any(o.get(key) is None for o in orient) else statistics.median(o[key] for o in orient)
+    distances = [r["final_error"] for r in e["records"]] if e.get("goal_distance") == "gym" else angles
     close = None if within is None else \
-        sum(1 for a, r in zip(angles, e["records"]) if a < within and not r.get("dropped"))
+        sum(1 for a, r in zip(distances, e["records"]) if a < within and not r.get("dropped"))
     return {"median_angle": statistics.median(angles), "median_yaw": part("yaw_error"), "median_tilt": part("tilt"),
             "precise": None if close is None else wilson(close, len(angles)), "within": within}
 

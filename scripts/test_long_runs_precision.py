@@ -54,6 +54,14 @@ if rec.final_angles(old, 0.1) != {"median_angle": None, "median_yaw": None, "med
 # The same episodes counted at another training threshold: within 0.06 rad only the first.
 if rec.final_angles(evaluation([0.05, 0.09, 0.08, 0.1, 0.7], dropped={2}), 0.06)["precise"][0] != 1 / 5:
     fail("within 0.06 rad without a drop should be 1 of 5")
+# Under gym's distance (the paper's stack) an episode is within by gym's own distance: the second one ends
+# 0.05 rad from the goal's orientation but at its double cover, 2 pi - 0.05 from it by gym, and is not within.
+gym = evaluation([0.05, 0.05, 0.7])
+gym["goal_distance"] = "gym"
+for r, d in zip(gym["records"], [0.05, 2 * 3.141592653589793 - 0.05, 0.7]):
+    r["final_error"] = d
+if rec.final_angles(gym, 0.1)["precise"][0] != 1 / 3:
+    fail("under gym's distance an episode at the goal's double cover was counted within 0.1 rad")
 # Without a threshold (no config.toml, no `env.success_threshold`) there is no share, never one at a guessed value.
 if rec.final_angles(evaluation([0.05]), None)["precise"] is not None:
     fail("an evaluation without a training threshold should give no share")
