@@ -245,18 +245,27 @@ mod tests {
     }
 
     proptest! {
-        // Guards the framing: any corruption of a valid file is a typed error.
+        // Guards the framing: any corruption of a valid file is a typed error,
+        // but for a version field turned into another version the format
+        // reads, whose body is by definition the same: that reads back the
+        // same values.
         #[test]
         fn corrupted_bytes_are_errors(values in proptest::collection::vec(any::<f32>(), 1..64),
                                       flip in 0usize..1024, bit in 0u8..8, cut in 0usize..1024) {
+            let bits = |v: &[f32]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
             let good = encode(&TEST, &values).unwrap();
             let back: Vec<f32> = decode(&TEST, &good).unwrap();
-            prop_assert_eq!(back.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                            values.iter().map(|v| v.to_bits()).collect::<Vec<_>>());
+            prop_assert_eq!(bits(&back), bits(&values));
             let mut bad = good.clone();
             let i = flip % bad.len();
             bad[i] ^= 1 << bit;
-            prop_assert!(decode::<Vec<f32>>(&TEST, &bad).is_err());
+            let version = u32::from_le_bytes(bad[8..12].try_into().unwrap());
+            match decode::<Vec<f32>>(&TEST, &bad) {
+                Ok(back) if (8..12).contains(&i) && TEST.reads(version) => {
+                    prop_assert_eq!(bits(&back), bits(&values));
+                }
+                other => prop_assert!(other.is_err(), "byte {} bit {} read as {:?}", i, bit, other),
+            }
             prop_assert!(decode::<Vec<f32>>(&TEST, &good[..cut % good.len()]).is_err());
         }
 
