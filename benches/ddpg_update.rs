@@ -40,10 +40,10 @@ use fmsr_core::policy::{ActMode, Policy};
 use fmsr_core::replay::ReplayConfig;
 use fmsr_nn::{LearnerParts, Maddpg, MaddpgConfig, NetworkConfig, Stacking};
 
-/// The paper's batch first: its target (issue 40) is at 1024, and a GPU
-/// lease's time limit that ends the bench in a later shape's first use then
-/// loses 256, measured in every lease so far (2026-11-27: 1024 came second
-/// and was not timed).
+/// The paper's batch first: its target is at 1024, and a GPU lease's time
+/// limit that ends the bench in a later shape's first use then loses 256,
+/// measured in every lease so far (in one lease 1024 came second and was not
+/// timed).
 const BATCHES: [usize; 2] = [1024, 256];
 const HIDDEN: usize = 256;
 const LAYERS: usize = 3;
@@ -373,11 +373,11 @@ fn joint_update(c: &mut Criterion) {
 /// least three, then on until a call is within 1.5x the fastest so far (for at
 /// most five minutes), and prints how many it took. On a GPU the first use of
 /// each shape compiles and tunes kernels, which took minutes at batch 1024 on
-/// an H200 and fell into criterion's samples (2026-11-26: a median of 916 ms
-/// over a range of 24 ms to 2.7 s), and three calls were not enough there
-/// (2026-11-27: the bench's 200 s ran out at batch 1024). Whether the tuning
-/// goes on past the first call or the first call alone took that long was not
-/// seen: the printed line says. On the CPU three calls are enough.
+/// an H200 and fell into criterion's samples (a median of 916 ms over a range
+/// of 24 ms to 2.7 s), and three calls were not enough there (the bench's
+/// 200 s ran out at batch 1024). Whether the tuning goes on past the first
+/// call or the first call alone took that long was not seen: the printed line
+/// says. On the CPU three calls are enough.
 fn warm_up(what: &str, mut f: impl FnMut()) {
     const LIMIT_S: f64 = 300.0;
     let start = Instant::now();

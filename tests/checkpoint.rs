@@ -1,8 +1,9 @@
-//! Guards reproducibility and checkpoints (issue 3, item 6): two runs with the
-//! same seed give identical statistics on the CPU backend, whatever the number
-//! of threads stepping the vectorised environments; a run resumed from a
-//! checkpoint (with its replay buffer read back from the replay log, wrapped
-//! or not) continues exactly as the uninterrupted run; corrupted, truncated or mismatched checkpoints are clear errors.
+//! Guards reproducibility and checkpoints: two runs with the same seed give
+//! identical statistics on the CPU backend, whatever the number of threads
+//! stepping the vectorised environments; a run resumed from a checkpoint (with
+//! its replay buffer read back from the replay log, wrapped or not) continues
+//! exactly as the uninterrupted run; corrupted, truncated or mismatched
+//! checkpoints are clear errors.
 
 use crate::common;
 
@@ -168,9 +169,9 @@ fn bad_checkpoints_are_clear_errors() {
     assert!(matches!(err, CoreError::Algorithm(_)), "{err}");
 }
 
-/// Guards the shadow-reward scale check (issue 11, item 1): shadow rewards
-/// that outweigh the task reward in the first cycle stop training with an
-/// error naming the key and both magnitudes; the magnitudes are logged.
+/// Guards the shadow-reward scale check: shadow rewards that outweigh the task
+/// reward in the first cycle stop training with an error naming the key and
+/// both magnitudes; the magnitudes are logged.
 #[test]
 fn shadow_rewards_that_outweigh_the_task_are_refused() {
     let mut config = common::trainer_config(Method::DenseFmsr, 1, 1);
@@ -185,7 +186,7 @@ fn shadow_rewards_that_outweigh_the_task_are_refused() {
     let stats = &t.history()[0];
     assert!(stats.shadow_reward_abs[2] > stats.task_reward_abs[2], "{stats:?}");
     assert_eq!(stats.shadow_reward_abs[0], 0.0, "agent x has no shadow reward");
-    // The same parts in the sampled batches (issue 52, item 3), and the critics' mean Q.
+    // The same parts in the sampled batches, and the critics' mean Q.
     assert!(stats.batch_shadow_reward_abs[2] > stats.batch_task_reward_abs[2], "{stats:?}");
     assert_eq!(stats.batch_shadow_reward_abs[0], 0.0, "agent x has no shadow reward");
     assert!(stats.batch_task_reward_abs.iter().all(|&v| v > 0.0), "{stats:?}");

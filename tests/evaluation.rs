@@ -1,4 +1,4 @@
-//! Guards the numbers a reader is given (issue 38): an evaluation records every
+//! Guards the numbers a reader is given: an evaluation records every
 //! episode, and no episode is both a success and a drop; validation episodes
 //! never meet the test set; a policy file takes a new evaluation in place of
 //! its old one; one `fmsr train` writes a run directory while `eval` and
@@ -124,10 +124,11 @@ fn a_policy_file_takes_a_new_evaluation_in_place_of_its_old_one() {
 }
 
 // Guards that an evaluation names the goal distance its success was counted
-// by, and that it is the one used (issue 52): every record's final error is
-// its final orientation under the named distance, the other distance's
-// evaluation goes to its own file and counts by the other one, and a saved
-// run that names no distance (written before 2026-11-27) is read as yaw.
+// by, and that it is the one used: every record's final error is its final
+// orientation under the named distance, the other distance's evaluation goes
+// to its own file and counts by the other one, and a saved run that names no
+// distance is read as yaw, the distance of the runs written before the
+// setting existed.
 #[test]
 fn an_evaluation_names_the_distance_it_counted_by() {
     use fmsr_envs::shadow_hand::GoalDistance;

@@ -1,8 +1,8 @@
-//! Guards the redesign of issue 39 (item 8): nothing changes numerically. A
-//! short run of each algorithm on the Shadow Hand (rapier, six agents,
-//! Dense+FMSR+IS with information sharing) gives bit for bit the epoch
-//! statistics and the evaluation episode recorded in `tests/data/golden.json`
-//! before any code moved.
+//! Guards that a redesign of the code changes nothing numerically. A short
+//! run of each algorithm on the Shadow Hand (rapier, six agents, Dense+FMSR+IS
+//! with information sharing) gives bit for bit the epoch statistics and the
+//! evaluation episode recorded in `tests/data/golden.json` before any code
+//! moved.
 //!
 //! Each run covers one sharing path: MADDPG mixes the actors' parameters (the
 //! paper's), MATD3 the parameters of actors and critics, MASAC the critics'
@@ -25,17 +25,17 @@
 //! final parameters (every agent's online actor and critic) and of the saved
 //! policy state (actors and normalisers). The whole learner state is not
 //! hashed: its optimiser records (burn's burnpack) do not serialise the same
-//! bytes twice (two saves of one learner measured 486 652 and 487 152 bytes,
-//! 2026-11-27), though they restore the same moments. A recording made again
-//! keeps, in `equivalent_to`, the earlier recordings whose every value it
-//! repeats, so that the chain of equivalence is in the data.
+//! bytes twice (two saves of one learner measured 486 652 and 487 152 bytes),
+//! though they restore the same moments. A recording made again keeps, in
+//! `equivalent_to`, the earlier recordings whose every value it repeats, so
+//! that the chain of equivalence is in the data.
 //!
 //! The runs train the task of the recordings: the yaw goal distance and at
 //! least 10 active sensors for `contacts` (`env.goal_distance = "yaw"`,
-//! `env.min_active_touch = 10`), the defaults before 2026-11-27 (issue 52):
-//! that the yaw distance still gives these numbers bit for bit is what lets
-//! every earlier record be reproduced. Statistics added to `EpochStats`
-//! since a recording was made are compared when the recording has them.
+//! `env.min_active_touch = 10`), fmsr's earlier defaults: that the yaw
+//! distance still gives these numbers bit for bit is what lets every earlier
+//! record be reproduced. Statistics added to `EpochStats` since a recording
+//! was made are compared when the recording has them.
 //!
 //! burn's CPU backend is built with its `x86-v4` feature: `gemm` runs
 //! AVX-512 kernels on a CPU with AVX-512F and its AVX2/FMA kernels
@@ -77,7 +77,8 @@ struct Trace {
     /// Its first joint action, to read a difference by eye.
     first_action: Vec<f32>,
     /// CRC-32C of the final parameters: every agent's online actor, then its
-    /// (first) critic, little-endian (absent in recordings before 2026-11-27).
+    /// (first) critic, little-endian (absent in recordings made before the
+    /// field existed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     params_crc: Option<u32>,
     /// CRC-32C of the saved policy state (`PolicyState::save_policy`).

@@ -1,4 +1,4 @@
-//! Guards training on several processes (issue 10, item 2; feature `mpi`).
+//! Guards training on several processes (feature `mpi`).
 //!
 //! Run as a plain test (`cargo test --features mpi --test mpi`), this program
 //! starts itself under `mpirun -np 2 --oversubscribe` and checks that:

@@ -1,11 +1,11 @@
-//! Guards rescue points (issue 53): a run whose checkpoint and replay log
-//! are lost restarts from a rescue point with everything but its replay
-//! buffer (the `full` level, bit for bit), or with its online networks
-//! (`online`, and at f16 precision `half`); the restart is in its history; a checkpoint written after the
-//! restart resumes exactly as the restarted run goes on (the lost episodes
-//! are never looked for); a thinned state is refused by a whole-state
-//! reader, and a corrupted or truncated rescue point by its own reader, with
-//! typed errors.
+//! Guards rescue points: a run whose checkpoint and replay log are lost
+//! restarts from a rescue point with everything but its replay buffer (the
+//! `full` level, bit for bit), or with its online networks (`online`, and at
+//! f16 precision `half`); the restart is in its history; a checkpoint written
+//! after the restart resumes exactly as the restarted run goes on (the lost
+//! episodes are never looked for); a thinned state is refused by a
+//! whole-state reader, and a corrupted or truncated rescue point by its own
+//! reader, with typed errors.
 
 use crate::common;
 
@@ -183,9 +183,9 @@ fn the_command_line_rescues_and_restarts_a_run() {
     assert!(!out.status.success() && text(&out).contains("--resume"), "{}", text(&out));
 }
 
-// Guards what a restart records as lost (2026-11-29: the paper-budget
-// pair's records said 24200 episodes of replay lost from a buffer of
-// 10000): the episodes the buffer held, those stored since the run's start
+// Guards what a restart records as lost (the paper-budget pair's records
+// once said 24200 episodes of replay lost from a buffer of 10000): the
+// episodes the buffer held, those stored since the run's start
 // or its previous restart, at most its capacity; `lost_episodes` stays the
 // replay floor, every episode stored before the restart.
 #[test]

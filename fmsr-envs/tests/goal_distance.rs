@@ -1,4 +1,4 @@
-//! Guards the task's goal distance (issue 52): by default the full angle
+//! Guards the task's goal distance: by default the full angle
 //! between orientations, as gym's `manipulate.py` measures rotation goals, so
 //! an egg lying on its side at the goal's heading is neither rewarded as at
 //! the goal nor counted a success (the yaw distance, kept for the old

@@ -1,4 +1,4 @@
-//! Guards the configurable agent partition of the Shadow Hand (issue 6, item 1):
+//! Guards the configurable agent partition of the Shadow Hand:
 //! a custom partition that owns every actuator once builds an env whose agents
 //! own exactly those slots and observe their fingers; one that misses, repeats
 //! or misnames an actuator is rejected with an error naming the actuator.

@@ -79,7 +79,7 @@ fn normaliser_calls() -> usize {
     calls.load(Ordering::Relaxed)
 }
 
-/// Guards the per-update sample count over workers (issue 11, item 1):
+/// Guards the per-update sample count over workers:
 /// `replay.batch_size` is the total over all workers, so it must split evenly.
 #[test]
 fn the_batch_is_split_over_the_workers() {

@@ -1,5 +1,5 @@
 //! Guards `PolicyState::save_policy` / `load_policy` (the actors of a trained
-//! policy file, issue 30): a policy saved by one learner and loaded into a
+//! policy file): a policy saved by one learner and loaded into a
 //! fresh one of another seed acts the same in evaluation, bit for bit, for
 //! every algorithm, and one of another stacking to float rounding (a batched
 //! matmul sums in another order); the policy taken from a whole learner state equals the one

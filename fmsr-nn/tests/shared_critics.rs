@@ -1,8 +1,8 @@
-//! Guards `NetworkConfig::critic` (`CriticTying`), the critic ablation of
-//! issue 31: with `SharedTrunk` every agent's critic keeps one trunk through
-//! learning while the heads stay their own; with `Shared` every agent reads
-//! one value; both save and load (a loaded learner updates as the saved one), refuse states of the other
-//! design, and every algorithm trains with them. The paper's design
+//! Guards `NetworkConfig::critic` (`CriticTying`), the critic ablation: with
+//! `SharedTrunk` every agent's critic keeps one trunk through learning while
+//! the heads stay their own; with `Shared` every agent reads one value; both
+//! save and load (a loaded learner updates as the saved one), refuse states of
+//! the other design, and every algorithm trains with them. The paper's design
 //! (`PerAgent`) keeps a trunk per agent.
 
 use crate::common;

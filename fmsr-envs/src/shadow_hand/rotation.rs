@@ -185,8 +185,8 @@ mod tests {
 
     // Guards the reason the full angle exists: an egg at the goal's yaw but
     // lying on its side is far from an upright goal; the yaw error calls it
-    // a success (measured in 2026-11 on the shipped egg policy: 31 yaw
-    // successes, 2 by the full angle).
+    // a success (measured on the shipped egg policy: 31 yaw successes, 2 by
+    // the full angle).
     #[test]
     fn a_tilted_object_at_the_right_yaw_is_not_at_the_goal() {
         let goal = axis_angle([0.0, 0.0, 1.0], 0.7);
