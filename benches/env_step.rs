@@ -1,7 +1,7 @@
-//! Env steps/s of the rapier3d Shadow Hand block task with random actions
-//! (issue 4, item 7): one env at the default solver settings and at the
-//! settings of the table in the crate docs, and `N` envs stepped as a batch
-//! across rayon's threads (`step_batch`), to see the scaling.
+//! Env steps/s of the rapier3d Shadow Hand block task with random actions:
+//! one env at the default solver settings and at the settings of the table in
+//! the crate docs, and `N` envs stepped as a batch across rayon's threads
+//! (`step_batch`), to see the scaling.
 //!
 //! Run with `cargo bench --bench env_step`. One criterion iteration is one
 //! env step (batched: one step of every env in the batch; throughput counts env steps).
@@ -13,7 +13,7 @@ use fmsr_core::Env;
 use fmsr_core::spec::JointAction;
 use fmsr_envs::shadow_hand::{RapierSettings, ShadowHand, ShadowHandConfig, step_batch};
 use rand::rngs::StdRng;
-use rand::{Rng, SeedableRng};
+use rand::{RngExt, SeedableRng};
 
 fn random_action(rng: &mut StdRng) -> JointAction {
     JointAction((0..20).map(|_| rng.random_range(-1.0..1.0)).collect())

@@ -1,6 +1,6 @@
 //! Env steps/s of the Shadow Hand block task on MuJoCo 3.17 (feature `mujoco`)
 //! and on rapier3d (default settings), measured in one run on one thread with the
-//! same random actions, and their ratio (issue 5, item 4).
+//! same random actions, and their ratio.
 //!
 //! ```text
 //! scripts/setup_mujoco.sh
@@ -18,7 +18,7 @@ use fmsr_core::Env;
 use fmsr_core::spec::JointAction;
 use fmsr_envs::shadow_hand::{MujocoSettings, ShadowHandConfig};
 use rand::rngs::StdRng;
-use rand::{Rng, SeedableRng};
+use rand::{RngExt, SeedableRng};
 
 const SECONDS: f64 = 3.0;
 const ROUNDS: usize = 3;

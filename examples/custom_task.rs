@@ -10,7 +10,7 @@
 
 use anyhow::Result;
 use fmsr::prelude::*;
-use rand::{Rng, SeedableRng};
+use rand::{RngExt, SeedableRng};
 
 /// The two-finger pinch task.
 struct Pinch {

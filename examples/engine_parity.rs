@@ -2,7 +2,7 @@
 //! 3.17 and on rapier3d (without the fidelity settings of `RapierSettings`,
 //! with each alone, and with all), and what each engine makes of them: active touch sensors,
 //! the occupancy of the `contacts` feature (>= 10 active), the grasp measures
-//! Q_MSV, Q_VEW and Q_DCC, how far the object turned, and drops (issue 11, item 2).
+//! Q_MSV, Q_VEW and Q_DCC, how far the object turned, and drops.
 //!
 //! ```text
 //! scripts/setup_mujoco.sh
@@ -20,7 +20,7 @@ use fmsr::experiment::{ExperimentConfig, MODEL_TIMESTEP};
 use fmsr_core::metrics::GraspTrace;
 use fmsr_core::prelude::*;
 use fmsr_envs::shadow_hand::{HandPhysics, MujocoSettings, RapierSettings, ShadowHand, ShadowHandConfig};
-use rand::{Rng, SeedableRng};
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 /// What one engine made of one action source, averaged over its episodes.

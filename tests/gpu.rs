@@ -19,7 +19,7 @@ use std::time::Instant;
 
 use fmsr::prelude::*;
 use fmsr_nn::DeviceSpec;
-use rand::{Rng, SeedableRng};
+use rand::{RngExt, SeedableRng};
 
 /// The device the test runs on: `FMSR_GPU_TEST_DEVICE` or lavapipe's `wgpu:cpu`.
 fn device_name() -> String {

@@ -8,7 +8,7 @@
 //! update uses the same samples, goals and rewards. When full, the oldest
 //! episode is overwritten.
 
-use rand::Rng;
+use rand::{Rng, RngExt};
 use serde::{Deserialize, Serialize};
 
 use crate::agent::{Batch, ObservationLayout};

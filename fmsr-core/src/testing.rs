@@ -20,7 +20,7 @@
 //! assert_eq!(r, [-0.5]);
 //! ```
 
-use rand::{Rng, SeedableRng};
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use crate::algorithm::RewardModel;

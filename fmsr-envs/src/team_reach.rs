@@ -18,7 +18,7 @@
 //! `|w|` reaches 1. Each agent observes the coordinate it moves and `w`; the
 //! global observation is `(p_x, p_y, w)`.
 
-use rand::{Rng, SeedableRng};
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 

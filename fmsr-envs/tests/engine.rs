@@ -6,7 +6,7 @@
 use fmsr_core::Env;
 use fmsr_core::spec::JointAction;
 use fmsr_envs::shadow_hand::{Engine, HandPhysics, ShadowHandConfig};
-use rand::{Rng, SeedableRng};
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 /// Observations, rewards and features of 10 steps of seeded random actions.

@@ -15,7 +15,7 @@ use fmsr_envs::shadow_hand::{
     HandObject, HandPhysics, MujocoHand, MujocoSettings, ShadowHand, ShadowHandConfig, TouchObs, fetch_hand_assets,
     load_mujoco_model,
 };
-use rand::{Rng, SeedableRng};
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn mujoco_env(config: ShadowHandConfig) -> ShadowHand<MujocoHand> {
@@ -146,7 +146,7 @@ fn egg_episode_runs() {
 /// (a) MuJoCo vs rapier: same seed, same reset pose, same scripted actions.
 ///
 /// Measured on 16 seeds (block, default settings of both backends; rapier at its
-/// default dt 0.008 x 5 per env step), 2026-11-21:
+/// default dt 0.008 x 5 per env step):
 ///
 /// | | max \|dz\| | max \|dyaw\| | mean \|dyaw\| |
 /// |---|---|---|---|
@@ -296,9 +296,9 @@ fn mean_active_touch<P: HandPhysics>(
     sum as f64 / (episodes as usize * len) as f64
 }
 
-/// Guards the touch sensors where FMSR's `contacts` feature reads them (issue 11,
-/// item 2): the same action sequences give similar active-touch counts on both
-/// engines. Measured with `examples/engine_parity.rs` (30 episodes of 100 steps):
+/// Guards the touch sensors where FMSR's `contacts` feature reads them: the
+/// same action sequences give similar active-touch counts on both engines.
+/// Measured with `examples/engine_parity.rs` (30 episodes of 100 steps):
 /// random actions 4.86 (MuJoCo) vs 5.20 (rapier; 3.90 before sensors read every
 /// contact of their body), scripted gaits 8.58 vs 6.23 (4.11 before). The band
 /// [0.6, 1.4] holds both with room for the 10-episode sample here.

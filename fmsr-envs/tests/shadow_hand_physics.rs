@@ -15,7 +15,7 @@ use fmsr_envs::shadow_hand::model::{ACTUATORS, HAND_JOINTS};
 use fmsr_envs::shadow_hand::{
     HandObject, HandPhysics, RapierHand, RapierSettings, ShadowHandConfig, fetch_hand_assets, load_rapier_model,
 };
-use rand::{Rng, SeedableRng};
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 /// The physics alone, at the env's default settings.

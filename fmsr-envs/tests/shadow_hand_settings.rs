@@ -1,6 +1,6 @@
-//! The measurement behind the rapier solver defaults (issue 4, item 7): for
-//! each candidate setting, the rest height of the block at mid controls, the
-//! servo tracking error, the behaviour under random actions and the env steps/s,
+//! The measurement behind the rapier solver defaults: for each candidate
+//! setting, the rest height of the block at mid controls, the servo tracking
+//! error, the behaviour under random actions and the env steps/s,
 //! to compare with MuJoCo 3.17 on the same model (block: rest 0.1661 m, tracking
 //! mean |q - ctrl| 0.057 rad, random actions 0/20 drops with 5.15 active touch
 //! sensors per step on average, 1.56k steps/s). Prints a markdown table; it is
@@ -17,7 +17,7 @@ use fmsr_envs::shadow_hand::model::{ACTUATORS, HAND_JOINTS};
 use fmsr_envs::shadow_hand::{
     HandObject, HandPhysics, RapierHand, RapierSettings, ShadowHandConfig, fetch_hand_assets, load_rapier_model,
 };
-use rand::{Rng, SeedableRng};
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 struct Row {

@@ -10,7 +10,7 @@ use fmsr_core::agent::{Batch, ObservationLayout};
 use fmsr_core::replay::ReplayConfig;
 use fmsr_core::spec::{AgentSpec, EnvSpec};
 use fmsr_nn::{LearnerParts, Maddpg, MaddpgConfig, NetworkConfig};
-use rand::{Rng, SeedableRng};
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

@@ -3,7 +3,7 @@
 //! `[-1, 1]`, and with probability `random_eps` a uniformly random joint
 //! action instead. Every draw comes from the algorithm's seeded RNG.
 
-use rand::Rng;
+use rand::{Rng, RngExt};
 use rand_distr::{Distribution, StandardNormal};
 
 /// A standard normal sample as `f32`: [`rand_distr::StandardNormal`] (ziggurat).

@@ -6,7 +6,7 @@
 pub mod cli;
 
 use fmsr::prelude::*;
-use rand::{Rng, SeedableRng};
+use rand::{RngExt, SeedableRng};
 
 /// Small networks and a small budget: enough for TeamReach to be learned.
 pub fn trainer_config(method: Method, seed: u64, epochs: usize) -> TrainerConfig {

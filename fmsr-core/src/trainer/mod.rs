@@ -21,7 +21,7 @@ mod stats;
 use std::sync::Arc;
 use std::time::Instant;
 
-use rand::Rng;
+use rand::RngExt;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 

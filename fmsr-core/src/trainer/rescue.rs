@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use rand::Rng;
+use rand::RngExt;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 

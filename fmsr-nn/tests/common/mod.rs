@@ -5,7 +5,7 @@
 use fmsr_core::agent::{Batch, ObservationLayout};
 use fmsr_core::replay::Episode;
 use fmsr_core::spec::{AgentSpec, EnvSpec};
-use rand::{Rng, SeedableRng};
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 /// A layout of agents with the given action dims (slots interleaved so that
