@@ -206,7 +206,7 @@ def campaign_section(name, what, arms, out_dir):
 
 
 def claims(arms):
-    """Each claim of the paper on the egg: the interval of ours and the verdict."""
+    """Each claim of the paper on the egg: the interval of ours and the verdict; the two of HEADLINE first."""
     t = {k: a["test"] for k, a in arms.items()}
     a, b = "Dense+FMSR+IS", "Dense"
     rows = []
@@ -259,6 +259,12 @@ def pcell(k, n, seeds):
     return f"{pct(k, n)} ({', '.join(f'{100 * a / b:.0f}' for a, b in seeds)})"
 
 
+def last_ten(runs):
+    """The per-epoch evaluations of the last 10 epochs: pooled (successes, episodes) and each run's."""
+    each = [(sum(r["curve"][0][-10:]), len(r["curve"][0][-10:]) * r["curve"][1]) for r in runs]
+    return (sum(k for k, _ in each), sum(n for _, n in each)), each
+
+
 def stats(values):
     n = len(values)
     mean = sum(values) / n
@@ -280,7 +286,7 @@ def lite_section():
              "Fig. 3 criterion at this budget.\n",
              "| Campaign | Configuration | Test, 0.4 rad | Test, within 0.1 rad, not dropped | Validation, 0.4 rad "
              "| Drops (test) | Total contact | Eval at 0.1 rad, last 10 epochs |", "|---|---|---|---|---|---|---|---|"]
-    verdicts, missing = [], []
+    verdicts, headline, missing = [], [], []
     for name, what, arms in LITE:
         runs = {label: [lite_arm(REPO / "docs/results" / name / r) for r in rs] for label, rs in arms.items()}
         if any(r is None for rs in runs.values() for r in rs):
@@ -291,8 +297,7 @@ def lite_section():
         for label, rs in runs.items():
             test, val = pooled(rs, "test"), pooled(rs, "val")
             close = (sum(r["close"] for r in rs), test[1]) if all(r["close"] is not None for r in rs) else None
-            last = [(sum(r["curve"][0][-10:]), len(r["curve"][0][-10:]) * r["curve"][1]) for r in rs]
-            curve = (sum(k for k, _ in last), sum(n for _, n in last))
+            curve, last = last_ten(rs)
             contacts = stats([c for r in rs for c in r["contacts"]])
             cells[label] = {"test": test, "close": close, "val": val, "curve": curve, "contacts": contacts}
             lines.append(
@@ -315,6 +320,8 @@ def lite_section():
             d = a[key][0] / a[key][1] - b[key][0] / b[key][1]
             verdicts.append((f"{name.upper()}: Dense+FMSR+IS {claim}", f"{100 * d:+.0f} pts {pts(iv)}",
                              verdict(iv, +1)))
+            if key in HEADLINE:
+                headline.append((f"Lite budget ({name.upper()}), {what}", HEADLINE[key], *verdicts[-1][1:]))
         d, (lo, hi) = welch(a["contacts"], b["contacts"])
         sign = lambda v: ("+" if v >= 0 else "") + num(v)
         verdicts.append((f"{name.upper()}: Dense+FMSR+IS keeps more contacts (Table I)",
@@ -324,31 +331,28 @@ def lite_section():
     lines += [f"| {c} | {v} | {d} |" for c, v, d in verdicts]
     lines.append("\nA verdict here holds for these two seeds' episodes pooled; where the seeds of one arm differ "
                  "by more than the arms do, two seeds cannot settle the sign across seeds.\n")
-    return "\n".join(lines) + "\n", missing, verdicts
+    return "\n".join(lines) + "\n", missing, headline
 
 
-def summary(paper_rows, lite_verdicts):
+# The paper's two headline claims on the egg, by the key of each measure that tests them.
+HEADLINE = {"test": "succeeds more often at 0.4 rad (Table I)", "curve": "learns better during training (Fig. 3)"}
+
+
+def summary(paper_rows, lite_headline):
     """The report's opening table: the paper's two headline claims (Table I's success at 0.4 rad and Fig. 3's
-    learning at the training threshold) by every comparison on record, each with its verdict."""
+    learning at the training threshold) by every comparison on record, each with its verdict. `paper_rows`:
+    each paper-budget campaign's claims() rows (None while not on record); `lite_headline`: lite_section's."""
     lines = ["## In short\n",
              "The paper's two headline claims on the egg, Dense+FMSR+IS against Dense, by every comparison "
              "on record (the sections below give every measure, the setup and the departures):\n",
              "| Comparison | Seeds an arm | Claim | Dense+FMSR+IS minus Dense (95 % interval) | Verdict |",
              "|---|---|---|---|---|"]
-    short = {0: "succeeds more often at 0.4 rad (Table I)", 1: "learns better during training (Fig. 3)"}
     for what, rows in paper_rows:
-        for i, label in short.items():
-            if rows is None:
-                lines.append(f"| Paper's budget, {what} | 1 | {label} | not yet on record | |")
-            else:
-                lines.append(f"| Paper's budget, {what} | 1 | {label} | {rows[i][1]} | {rows[i][2]} |")
-    for claim, value, word in lite_verdicts:
-        campaign, text = claim.split(": ", 1)
-        label = ("succeeds more often at 0.4 rad (Table I)" if "0.4 rad" in text else
-                 "learns better during training (Fig. 3)" if "during training" in text else None)
-        if label is not None:
-            stack = dict((n.upper(), w) for n, w, _ in LITE)[campaign]
-            lines.append(f"| Lite budget ({campaign}), {stack} | 2 | {label} | {value} | {word} |")
+        # claims() puts the two headline claims first, in HEADLINE's order.
+        for i, label in enumerate(HEADLINE.values()):
+            cells = "not yet on record |" if rows is None else f"{rows[i][1]} | {rows[i][2]}"
+            lines.append(f"| Paper's budget, {what} | 1 | {label} | {cells} |")
+    lines += [f"| {where} | 2 | {label} | {value} | {word} |" for where, label, value, word in lite_headline]
     lines.append("\nAt the paper's budget the training claim is measured on the test set (episodes ending within "
                  "0.1 rad, not dropped); at the lite budget by the per-epoch evaluations at 0.1 rad over the last "
                  "10 epochs, Fig. 3's own criterion.\n")
@@ -377,8 +381,7 @@ def attribution_section():
             lines.append(f"| {label} | 0 | not yet | | | | |")
             continue
         test, val = pooled(runs, "test"), pooled(runs, "val")
-        last = [(sum(r["curve"][0][-10:]), len(r["curve"][0][-10:]) * r["curve"][1]) for r in runs]
-        curve = (sum(k for k, _ in last), sum(n for _, n in last))
+        curve, last = last_ten(runs)
         row = {"test": test, "curve": curve}
         base = base or row
         diff = lambda key: ("—" if row is base else
@@ -410,6 +413,7 @@ def main():
             continue
         section, rows = campaign_section(name, what, arms, out)
         parts.append((name, what, section, rows))
+    lite, missing, lite_headline = lite_section()
     text = ["# Reproduction report\n",
             "Written by `scripts/reproduction_report.py` from the committed records (run it again to get these "
             "bytes; `scripts/test_reproduction_report.py` checks it). It compares fmsr with *Stable In-hand "
@@ -426,7 +430,7 @@ def main():
             "test episodes. A claim is **supported** when the interval of the difference lies on the paper's "
             "side of zero, **contradicted** when it lies on the other, and **cannot tell** otherwise; with one "
             "seed an arm, a verdict holds for that seed pair, not for the method across seeds.\n",
-            "{summary}",
+            summary([(short_name(what), rows) for _, what, _, rows in parts], lite_headline),
             "## Where fmsr departs from the paper, gym and HER baselines\n",
             "From [docs/design.md, \"The paper's stack\"](design.md#the-papers-stack); `stack = \"paper\"` "
             "takes the paper's side wherever the table says so.\n",
@@ -443,7 +447,6 @@ def main():
         text += [f"| {c} | {v} | {d} |" for c, v, d in rows]
         text.append("\nA verdict is about the direction only: a supported grasp measure can differ far less "
                     "than the paper's (its Q_DCC halves), and ours are in our model's units.\n")
-    lite, missing, lite_verdicts = lite_section()
     text.append(lite)
     attribution, partial = attribution_section()
     text.append(attribution)
@@ -456,8 +459,6 @@ def main():
              *([f"- The paper's stack's settings one at a time on Dense (E7, [`docs/results/e7/`](results/e7/)), "
                 f"not every seed on record: {'; '.join(partial)}."] if partial else []),
              ""]
-    paper_rows = [(short_name(what), rows) for _, what, _, rows in parts]
-    text[text.index("{summary}")] = summary(paper_rows, lite_verdicts)
     (out / "report.md").write_text("\n".join(text))
     print(f"wrote {out / 'report.md'}")
 
