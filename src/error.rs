@@ -16,11 +16,11 @@ pub enum ExperimentError {
         /// What is wrong.
         reason: String,
     },
-    /// An algorithm cannot be registered under its name
-    /// ([`crate::algorithms::register`]).
-    #[error("cannot register the algorithm `{name}`: {reason}")]
+    /// An algorithm or a task cannot be registered under its name
+    /// ([`crate::algorithms::register`], [`crate::tasks::register`]).
+    #[error("cannot register `{name}`: {reason}")]
     Register {
-        /// The rule's name.
+        /// The rule's or the task's name.
         name: String,
         /// Why not.
         reason: String,

@@ -8,7 +8,9 @@
 //! ([`StepInfo::is_success`](fmsr_core::spec::StepInfo)) and it never said
 //! dropped. The report gives the success rate with its 95 % Wilson interval,
 //! the drops, each stability feature's rate (the share of steps it was on,
-//! over every episode), every episode's final goal distance, and the same
+//! over every episode), every episode's final goal distance, the task's own
+//! measures ([`Task::measure`](crate::tasks::Task::measure)) of every episode
+//! with their mean and standard deviation across the episodes, and the same
 //! episodes played with the zero action, the chance level the success is
 //! compared with.
 
@@ -33,6 +35,10 @@ pub struct TaskEpisode {
     pub dropped: bool,
     /// The goal distance after the last step.
     pub final_distance: f32,
+    /// The task's own measures of the episode, in the order of
+    /// [`TaskEvalReport::measures`].
+    #[serde(default)]
+    pub measures: Vec<f64>,
 }
 
 /// The evaluation of a registered task's policy, as `fmsr eval` writes it
@@ -59,6 +65,11 @@ pub struct TaskEvalReport {
     pub features: Vec<String>,
     /// Each feature's rate over every step of every episode.
     pub feature_rates: Vec<f64>,
+    /// The names of the task's own measures
+    /// ([`Task::MEASURES`](crate::tasks::Task::MEASURES)), whose values each
+    /// episode's record holds.
+    #[serde(default)]
+    pub measures: Vec<String>,
     /// Successes of the zero action on the same episodes.
     pub still_successes: usize,
     /// Every episode, in seed order.
@@ -78,6 +89,15 @@ impl TaskEvalReport {
     #[must_use]
     pub fn still_success(&self) -> Option<Interval> {
         Interval::wilson(self.still_successes, self.episodes)
+    }
+
+    /// The task's measure `i` ([`TaskEvalReport::measures`]): its mean and
+    /// standard deviation across the episodes; `None` for no such measure
+    /// or no episode.
+    #[must_use]
+    pub fn measure(&self, i: usize) -> Option<MeanStd> {
+        let values: Option<Vec<f64>> = self.records.iter().map(|r| r.measures.get(i).copied()).collect();
+        MeanStd::from_samples(&values?)
     }
 
     /// A Markdown table of the evaluation.
@@ -101,6 +121,10 @@ impl TaskEvalReport {
         for (name, rate) in self.features.iter().zip(&self.feature_rates) {
             text.push_str(&format!("| feature `{name}` | {rate:.3} |\n"));
         }
+        for (i, name) in self.measures.iter().enumerate() {
+            let value = self.measure(i).map_or_else(|| "-".into(), |m| format!("{m:.3}"));
+            text.push_str(&format!("| measure `{name}` (mean ± std) | {value} |\n"));
+        }
         text
     }
 
@@ -121,14 +145,17 @@ impl TaskEvalReport {
 ///
 /// # Errors
 /// [`ExperimentError::Config`] for the Shadow Hand (evaluated by
-/// [`crate::evaluate`]) or a task not registered; the errors of the policy
-/// and the environment.
+/// [`crate::evaluate`]) or a task not registered; the errors of the policy,
+/// the environment and the task's measures ([`crate::tasks::TaskSettings::measure`]).
 pub fn evaluate_task(
     config: &ExperimentConfig,
     set: EpisodeSet,
     source: &Source,
 ) -> Result<TaskEvalReport, ExperimentError> {
     let start = Instant::now();
+    let settings = config
+        .task_settings()
+        .ok_or_else(|| ExperimentError::config("task", "the Shadow Hand is evaluated by fmsr::evaluate"))?;
     let env = config.task_envs(1)?.pop().ok_or_else(|| ExperimentError::config("task", "no environment"))?;
     let features = env.spec().features.clone();
     let mut trainer = config.build_trainer(vec![env])?;
@@ -150,7 +177,11 @@ pub fn evaluate_task(
             .last()
             .map_or(f32::INFINITY, |o| trainer.env().goal_distance(&o.achieved_goal, &o.desired_goal));
         let success = episode.infos.last().is_some_and(|i| i.is_success) && !dropped;
-        records.push(TaskEpisode { seed, success, dropped, final_distance });
+        let measures = settings.measure(trainer.env(), &episode).map_err(|e| ExperimentError::Context {
+            what: format!("measuring the evaluation episode of seed {seed}"),
+            source: Box::new(e),
+        })?;
+        records.push(TaskEpisode { seed, success, dropped, final_distance, measures });
     }
     let still_successes = zero_action_successes(trainer.env_mut(), &seeds)?;
     Ok(TaskEvalReport {
@@ -164,6 +195,7 @@ pub fn evaluate_task(
         drops: records.iter().filter(|r| r.dropped).count(),
         features,
         feature_rates: on.iter().map(|s| s / steps.max(1) as f64).collect(),
+        measures: settings.measures().iter().map(|&m| m.to_owned()).collect(),
         still_successes,
         records,
         seconds: start.elapsed().as_secs_f64(),

@@ -74,6 +74,24 @@ pub trait Task: 'static {
     /// # Errors
     /// Settings the environment refuses.
     fn env(config: &Self::Config) -> Result<Self::Env, <Self::Env as Env>::Error>;
+
+    /// The names of the task's own evaluation measures, in the order
+    /// [`Task::measure`] gives their values: lowercase keys (`a-z`, `0-9`,
+    /// `_`), each once. None by default.
+    const MEASURES: &'static [&'static str] = &[];
+
+    /// The task's own measures of one evaluation episode, a finite value
+    /// for each name of [`Task::MEASURES`] in its order: `env` as the
+    /// episode's last step left it, `episode` its observations, joint
+    /// actions and step infos. `fmsr eval` keeps each episode's values and
+    /// reports their mean and standard deviation across the episodes, and
+    /// `fmsr report` sets them beside the success rates. What a measure
+    /// needs of every step, the environment can count itself between
+    /// resets. None by default.
+    fn measure(env: &Self::Env, episode: &Episode) -> Vec<f64> {
+        let _ = (env, episode);
+        Vec::new()
+    }
 }
 
 /// A registered task's settings, read once: the task's own
@@ -137,6 +155,32 @@ impl TaskSettings {
     pub fn envs(&self, n: usize) -> Result<Vec<AnyEnv>, ExperimentError> {
         (0..n).map(|_| self.entry.env(&*self.config)).collect()
     }
+
+    /// The names of the task's own evaluation measures ([`Task::MEASURES`]).
+    #[must_use]
+    pub fn measures(&self) -> &'static [&'static str] {
+        self.entry.measures()
+    }
+
+    /// The task's own measures of an evaluation `episode` that `env`, one of
+    /// [`TaskSettings::envs`], played ([`Task::measure`]).
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] for key `task` when `env` is not this
+    /// task's environment, or the task gave another number of values than
+    /// it has measures, or a value that is not finite, naming the measure.
+    pub fn measure(&self, env: &AnyEnv, episode: &Episode) -> Result<Vec<f64>, ExperimentError> {
+        let values = self.entry.measure(env, episode)?;
+        let names = self.measures();
+        let bad = |reason: String| Err(ExperimentError::config("task", format!("`{}`: {reason}", self.name())));
+        if values.len() != names.len() {
+            return bad(format!("gave {} measure value(s) for its {} measure(s) {names:?}", values.len(), names.len()));
+        }
+        if let Some((name, value)) = names.iter().zip(&values).find(|(_, v)| !v.is_finite()) {
+            return bad(format!("its measure `{name}` is {value}, which is not finite"));
+        }
+        Ok(values)
+    }
 }
 
 impl PartialEq for TaskSettings {
@@ -178,6 +222,12 @@ pub(crate) trait Entry: Send + Sync {
 
     /// An environment of these settings.
     fn env(&self, config: &dyn Any) -> Result<AnyEnv, ExperimentError>;
+
+    /// The names of the task's own measures.
+    fn measures(&self) -> &'static [&'static str];
+
+    /// The task's own measures of an episode `env` played.
+    fn measure(&self, env: &AnyEnv, episode: &Episode) -> Result<Vec<f64>, ExperimentError>;
 }
 
 struct TaskEntry<T>(PhantomData<fn() -> T>);
@@ -215,6 +265,17 @@ impl<T: Task> Entry for TaskEntry<T> {
         })?;
         Ok(AnyEnv::new(env))
     }
+
+    fn measures(&self) -> &'static [&'static str] {
+        T::MEASURES
+    }
+
+    fn measure(&self, env: &AnyEnv, episode: &Episode) -> Result<Vec<f64>, ExperimentError> {
+        let env = env.downcast_ref::<T::Env>().ok_or_else(|| {
+            ExperimentError::config("task", format!("the environment measured is not the task `{}`'s", T::NAME))
+        })?;
+        Ok(T::measure(env, episode))
+    }
 }
 
 type Registry = BTreeMap<&'static str, Arc<dyn Entry>>;
@@ -240,6 +301,17 @@ pub fn register<T: Task>() -> Result<(), ExperimentError> {
     }
     if crate::algorithms::names().contains(&name) {
         return refuse(format!("an algorithm is registered as `{name}`, and its section would be the task's"));
+    }
+    for (i, measure) in T::MEASURES.iter().enumerate() {
+        let mut chars = measure.chars();
+        if !chars.next().is_some_and(|c| c.is_ascii_lowercase())
+            || !chars.all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+        {
+            return refuse(format!("its measure `{measure}` is not a lowercase key (a-z, 0-9 and _, from a letter)"));
+        }
+        if T::MEASURES[..i].contains(measure) {
+            return refuse(format!("it names its measure `{measure}` twice"));
+        }
     }
     let mut registry = REGISTRY.write().unwrap_or_else(PoisonError::into_inner);
     match registry.get(name) {
@@ -361,6 +433,71 @@ mod tests {
         fn env(config: &TeamReachConfig) -> Result<TeamReach, fmsr_envs::EnvError> {
             config.init()
         }
+    }
+
+    /// A task whose measures are as `MEASURES` names and `VALUES` gives.
+    struct Measured<const K: usize>;
+
+    macro_rules! measured {
+        ($k:literal, $name:literal, $measures:expr, $values:expr) => {
+            impl Task for Measured<$k> {
+                const NAME: &'static str = $name;
+                type Config = TeamReachConfig;
+                type Env = TeamReach;
+
+                fn env(config: &TeamReachConfig) -> Result<TeamReach, fmsr_envs::EnvError> {
+                    config.init()
+                }
+
+                const MEASURES: &'static [&'static str] = $measures;
+
+                fn measure(_: &TeamReach, episode: &Episode) -> Vec<f64> {
+                    $values(episode)
+                }
+            }
+        };
+    }
+
+    measured!(0, "measured_ok", &["steps", "last_reward"], |e: &Episode| vec![e.infos.len() as f64, -1.0]);
+    measured!(1, "measured_short", &["steps", "last_reward"], |e: &Episode| vec![e.infos.len() as f64]);
+    measured!(2, "measured_nan", &["steps"], |_: &Episode| vec![f64::NAN]);
+    measured!(3, "measured_upper", &["Steps"], |_: &Episode| vec![0.0]);
+    measured!(4, "measured_twice", &["steps", "steps"], |_: &Episode| vec![0.0, 0.0]);
+
+    // Guards a task's own evaluation measures: names that are keys, each
+    // once, checked at registration; one finite value a name for each
+    // episode, from the task's own environment, else an error naming the
+    // task and the measure.
+    #[test]
+    fn a_tasks_measures_are_checked() {
+        for err in [register::<Measured<3>>(), register::<Measured<4>>()] {
+            let err = err.unwrap_err().to_string();
+            assert!(err.contains("measure") && err.contains("teps"), "{err}");
+        }
+        register::<Reach>().unwrap();
+        let reach = TaskSettings::resolve("reach_test", None).unwrap();
+        let mut env = reach.envs(1).unwrap().pop().unwrap();
+        let mut episode = Episode { observations: vec![env.reset(3).unwrap()], ..Episode::default() };
+        let zero = JointAction::zeros(env.spec().action_dim);
+        for _ in 0..4 {
+            let outcome = env.step(&zero).unwrap();
+            episode.observations.push(outcome.observation);
+            episode.actions.push(zero.clone());
+            episode.infos.push(outcome.info);
+        }
+        assert!(reach.measures().is_empty() && reach.measure(&env, &episode).unwrap().is_empty());
+        register::<Measured<0>>().unwrap();
+        register::<Measured<1>>().unwrap();
+        register::<Measured<2>>().unwrap();
+        let measure = |task: &str| TaskSettings::resolve(task, None).unwrap().measure(&env, &episode);
+        assert_eq!(measure("measured_ok").unwrap(), [4.0, -1.0]);
+        let err = measure("measured_short").unwrap_err().to_string();
+        assert!(err.contains("measured_short") && err.contains("gave 1 measure value(s)"), "{err}");
+        let err = measure("measured_nan").unwrap_err().to_string();
+        assert!(err.contains("measured_nan") && err.contains("`steps` is NaN"), "{err}");
+        let other = AnyEnv::new(env);
+        let err = TaskSettings::resolve("measured_ok", None).unwrap().measure(&other, &episode).unwrap_err();
+        assert!(err.to_string().contains("measured_ok"), "{err}");
     }
 
     // Guards the registry's promise: a name finds one task. A second task

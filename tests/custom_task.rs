@@ -1,9 +1,11 @@
 //! Guards that a task of a user's crate, registered by name, is trained,
 //! resumed, exported, evaluated and reported by fmsr's own command from a
 //! config that says `task = "team_reach"`, with its settings written out in
-//! the run's `config.toml`; and that the Shadow Hand's keys, flags and
+//! the run's `config.toml` and its own evaluation measures in its
+//! evaluations and report; and that the Shadow Hand's keys, flags and
 //! commands are refused for it with errors that name them.
 
+use fmsr::core::prelude::Episode;
 use fmsr::experiment::ExperimentConfig;
 use fmsr::task_eval::TaskEvalReport;
 use fmsr::tasks::{self, Task};
@@ -20,6 +22,24 @@ impl Task for Reach {
     fn env(config: &TeamReachConfig) -> Result<TeamReach, fmsr_envs::EnvError> {
         config.init()
     }
+
+    const MEASURES: &'static [&'static str] = &["steps_to_success", "mean_abs_action"];
+
+    fn measure(_env: &TeamReach, episode: &Episode) -> Vec<f64> {
+        vec![steps_to_success(episode), mean_abs_action(episode)]
+    }
+}
+
+/// The steps until the first that says success, all of them if none does.
+fn steps_to_success(episode: &Episode) -> f64 {
+    let first = episode.infos.iter().position(|i| i.is_success);
+    first.map_or(episode.infos.len(), |i| i + 1) as f64
+}
+
+/// The mean absolute action component over the episode.
+fn mean_abs_action(episode: &Episode) -> f64 {
+    let values: Vec<f64> = episode.actions.iter().flat_map(|a| a.as_slice()).map(|x| f64::from(x.abs())).collect();
+    values.iter().sum::<f64>() / values.len().max(1) as f64
 }
 
 const CONFIG: &str = r#"
@@ -90,6 +110,15 @@ fn a_registered_task_runs_through_the_fmsr_command() {
     assert_eq!(report.features, ["safe_region", "gentle"]);
     assert!(report.feature_rates.iter().all(|r| (0.0..=1.0).contains(r)), "{:?}", report.feature_rates);
     assert_eq!(report.successes, report.records.iter().filter(|r| r.success).count());
+    // The task's own measures: every episode's values, their mean across episodes.
+    assert_eq!(report.measures, ["steps_to_success", "mean_abs_action"]);
+    for r in &report.records {
+        assert_eq!(r.measures.len(), 2, "{r:?}");
+        assert!((1.0..=12.0).contains(&r.measures[0]) && (0.0..=1.0).contains(&r.measures[1]), "{r:?}");
+    }
+    let mean = report.records.iter().map(|r| r.measures[0]).sum::<f64>() / 6.0;
+    assert!((report.measure(0).unwrap().mean - mean).abs() < 1e-12);
+    assert!(report.to_markdown().contains("measure `steps_to_success`"));
 
     // The exported policy plays the same episodes to the same ends.
     let policy = tmp.path().join("reach.fmsr");
@@ -108,6 +137,8 @@ fn a_registered_task_runs_through_the_fmsr_command() {
     let test = fmsr_core::interval::Interval::wilson(report.successes, report.episodes).unwrap().percent();
     assert!(summary.contains("## team_reach") && summary.contains(&test), "{summary}");
     assert!(summary.contains("`safe_region` rate") && summary.contains("`gentle` rate"), "{summary}");
+    let steps = format!("{:.3}", report.measure(0).unwrap());
+    assert!(summary.contains("`steps_to_success` (mean ± std)") && summary.contains(&steps), "{summary}");
     assert!(summary.contains("Not in the tables") && summary.contains("reach.fmsr"), "{summary}");
     assert!(out.join("fig3_team_reach.png").exists());
     // A Shadow Hand run is reported apart.

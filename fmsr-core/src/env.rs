@@ -102,6 +102,7 @@ pub struct AnyEnvError(pub Box<dyn std::error::Error + Send + Sync + 'static>);
 /// let mut env = AnyEnv::new(Still { spec });
 /// assert_eq!(env.goal_distance(&[0.0], &[2.0]), 2.0);
 /// assert_eq!(env.reset(7)?.desired_goal, [2.0]);
+/// assert!(env.downcast_ref::<Still>().is_some() && env.downcast_ref::<AnyEnv>().is_none());
 /// # Ok::<(), fmsr_core::env::AnyEnvError>(())
 /// ```
 pub struct AnyEnv {
@@ -112,6 +113,13 @@ impl AnyEnv {
     /// `env` behind [`AnyEnv`].
     pub fn new<E: Env + Send + 'static>(env: E) -> Self {
         Self { inner: Box::new(env) }
+    }
+
+    /// The environment it holds, if it is an `E`: what code that knows the
+    /// task reads of its state (a task's evaluation measures, say).
+    #[must_use]
+    pub fn downcast_ref<E: Env + 'static>(&self) -> Option<&E> {
+        self.inner.as_any().downcast_ref::<E>()
     }
 }
 
@@ -128,9 +136,10 @@ trait ErasedEnv: Send {
     fn step(&mut self, action: &JointAction) -> Result<StepOutcome, AnyEnvError>;
     fn goal_distance(&self, achieved: &[f32], desired: &[f32]) -> f32;
     fn goal_reward(&self, achieved: &[f32], desired: &[f32]) -> f32;
+    fn as_any(&self) -> &dyn std::any::Any;
 }
 
-impl<E: Env + Send> ErasedEnv for E {
+impl<E: Env + Send + 'static> ErasedEnv for E {
     fn spec(&self) -> &EnvSpec {
         Env::spec(self)
     }
@@ -149,6 +158,10 @@ impl<E: Env + Send> ErasedEnv for E {
 
     fn goal_reward(&self, achieved: &[f32], desired: &[f32]) -> f32 {
         Env::goal_reward(self, achieved, desired)
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
     }
 }
 

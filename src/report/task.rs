@@ -5,8 +5,9 @@
 //! - Per task, one row per configuration: the run standing for it (chosen on
 //!   the validation episodes by [`choice`](super::choice)'s rule), its
 //!   validation and test success with their 95 % Wilson intervals, the zero
-//!   action's success on the same test episodes, the drops and each
-//!   stability feature's rate; then the differences of test success between
+//!   action's success on the same test episodes, the drops, each
+//!   stability feature's rate and the task's own measures (mean ± std across
+//!   the test episodes); then the differences of test success between
 //!   configurations with Newcombe's intervals.
 //! - `fig3_<task>.png`: the per-epoch evaluation success of every
 //!   configuration (mean and min-max band over seeds), as the Shadow Hand's
@@ -130,11 +131,17 @@ pub fn write_task_report(runs: &[TaskRunRecord], out: &Path) -> Result<ReportFil
     let mut missing = Vec::new();
     for (task, task_runs) in &by_task {
         let _ = writeln!(summary, "## {task}\n");
-        let features = task_runs.iter().find_map(|r| r.eval.as_ref()).map(|e| e.features.clone()).unwrap_or_default();
+        let first = task_runs.iter().find_map(|r| r.eval.as_ref());
+        let features = first.map(|e| e.features.clone()).unwrap_or_default();
+        let measures = first.map(|e| e.measures.clone()).unwrap_or_default();
         summary.push_str("| Configuration | Run | Validation success | Test success | Zero action | Drops |");
         let mut rule = String::from("|---|---|---|---|---|---|");
         for f in &features {
             let _ = write!(summary, " `{f}` rate |");
+            rule.push_str("---|");
+        }
+        for m in &measures {
+            let _ = write!(summary, " `{m}` (mean ± std) |");
             rule.push_str("---|");
         }
         let _ = writeln!(summary, "\n{rule}");
@@ -165,6 +172,11 @@ pub fn write_task_report(runs: &[TaskRunRecord], out: &Path) -> Result<ReportFil
             for i in 0..features.len() {
                 let rate = e.feature_rates.get(i).map_or_else(|| "-".into(), |r| format!("{r:.3}"));
                 let _ = write!(summary, " {rate} |");
+            }
+            for m in &measures {
+                let i = e.measures.iter().position(|n| n == m);
+                let value = i.and_then(|i| e.measure(i)).map_or_else(|| "-".into(), |v| format!("{v:.3}"));
+                let _ = write!(summary, " {value} |");
             }
             summary.push('\n');
             chosen.push((c.clone(), e, how));

@@ -3,7 +3,10 @@
 //! the agents stay within 0.5 of each other. Registered by name
 //! (`fmsr::tasks::Task`), fmsr's own command trains, resumes, exports and
 //! evaluates it from a config that says `task = "herd"`, here with this
-//! crate's own algorithm (`fixed_sac`, `sac.rs`).
+//! crate's own algorithm (`fixed_sac`, `sac.rs`), and reports the task's own
+//! measures of each evaluation episode: the herd's spread at the end (read
+//! from the environment) and the steps it took to first reach the goal (from
+//! the episode).
 
 use std::path::Path;
 
@@ -80,6 +83,12 @@ impl Herd {
         self.x.iter().sum::<f32>() / AGENTS as f32
     }
 
+    /// The distance between the two agents farthest apart.
+    #[must_use]
+    pub fn spread(&self) -> f32 {
+        self.x.iter().fold(f32::MIN, |m, &x| m.max(x)) - self.x.iter().fold(f32::MAX, |m, &x| m.min(x))
+    }
+
     fn observation(&self) -> Observation {
         let mean = self.mean();
         Observation {
@@ -113,7 +122,7 @@ impl Env for Herd {
             *x = (*x + self.config.speed * a).clamp(-2.0, 2.0);
         }
         let obs = self.observation();
-        let spread = self.x.iter().fold(f32::MIN, |m, &x| m.max(x)) - self.x.iter().fold(f32::MAX, |m, &x| m.min(x));
+        let spread = self.spread();
         let distance = self.goal_distance(&obs.achieved_goal, &obs.desired_goal);
         Ok(StepOutcome {
             reward: self.goal_reward(&obs.achieved_goal, &obs.desired_goal),
@@ -147,6 +156,15 @@ impl fmsr::tasks::Task for HerdTask {
 
     fn env(config: &HerdConfig) -> Result<Herd, HerdError> {
         Herd::new(*config)
+    }
+
+    const MEASURES: &'static [&'static str] = &["final_spread", "steps_to_goal"];
+
+    /// The herd's spread at the end; the steps until the mean first came
+    /// within the threshold (all of the episode's if it never did).
+    fn measure(env: &Herd, episode: &Episode) -> Vec<f64> {
+        let first = episode.infos.iter().position(|i| i.is_success);
+        vec![f64::from(env.spread()), first.map_or(episode.infos.len(), |i| i + 1) as f64]
     }
 }
 
@@ -214,6 +232,9 @@ pub fn run_by_name(dir: &Path) -> Result<()> {
     if !summary.contains("## herd") || !report_dir.join("fig3_herd.png").exists() {
         bail!("the herd report has no section or learning curves of the task `herd`");
     }
+    if !summary.contains("`final_spread` (mean ± std)") || !summary.contains("`steps_to_goal` (mean ± std)") {
+        bail!("the herd report does not give the task's own measures");
+    }
     let written = std::fs::read_to_string(run.join("config.toml"))?;
     let report: fmsr::task_eval::TaskEvalReport = serde_json::from_slice(&std::fs::read(run.join("task-eval.json"))?)?;
     if !written.contains("task = \"herd\"")
@@ -222,13 +243,21 @@ pub fn run_by_name(dir: &Path) -> Result<()> {
         || report.task != "herd"
         || report.epochs != 2
         || report.episodes != 20
+        || report.measures != ["final_spread", "steps_to_goal"]
+        || !report.records.iter().all(|r| {
+            matches!(r.measures[..], [spread, steps] if (0.0..=4.0).contains(&spread) && (1.0..=20.0).contains(&steps))
+        })
     {
-        bail!("the herd run's config.toml or task-eval.json do not hold the fixed_sac herd run of 2 epochs");
+        bail!("the herd run's config.toml or task-eval.json do not hold the fixed_sac herd run of 2 epochs and its measures");
     }
     println!(
         "fmsr's command trained, resumed, exported, evaluated and reported this crate's herd by name with fixed_sac: \
-         success {}/{} (the zero action {}/{})",
-        report.successes, report.episodes, report.still_successes, report.episodes
+         success {}/{} (the zero action {}/{}), final spread {:.3}",
+        report.successes,
+        report.episodes,
+        report.still_successes,
+        report.episodes,
+        report.measure(0).map_or(f64::NAN, |m| m.mean)
     );
     Ok(())
 }
