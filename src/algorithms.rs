@@ -284,14 +284,18 @@ pub(crate) fn resolve_section<C: serde::Serialize + serde::de::DeserializeOwned>
         .map_err(|e| ExperimentError::config_source(name, format!("`[{name}]` does not read as its settings"), e))
 }
 
+/// Whether `name` is a lowercase key: `a-z`, `0-9` and `_`, starting with a letter.
+pub(crate) fn is_lowercase_key(name: &str) -> bool {
+    let mut chars = name.chars();
+    chars.next().is_some_and(|c| c.is_ascii_lowercase())
+        && chars.all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
+}
+
 /// Whether `name` may name a section of an experiment: a lowercase key
 /// (`a-z`, `0-9`, `_`, starting with a letter) that is none of an
 /// experiment's own keys; `Err` says why not.
 pub(crate) fn check_key(name: &str) -> Result<(), String> {
-    let mut chars = name.chars();
-    if !chars.next().is_some_and(|c| c.is_ascii_lowercase())
-        || !chars.all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
-    {
+    if !is_lowercase_key(name) {
         return Err("a name is a lowercase key: a-z, 0-9 and _, starting with a letter".into());
     }
     if RESERVED.contains(&name) {

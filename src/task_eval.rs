@@ -156,7 +156,7 @@ pub fn evaluate_task(
     let settings = config
         .task_settings()
         .ok_or_else(|| ExperimentError::config("task", "the Shadow Hand is evaluated by fmsr::evaluate"))?;
-    let env = config.task_envs(1)?.pop().ok_or_else(|| ExperimentError::config("task", "no environment"))?;
+    let env = settings.envs(1)?.pop().ok_or_else(|| ExperimentError::config("task", "no environment"))?;
     let features = env.spec().features.clone();
     let mut trainer = config.build_trainer(vec![env])?;
     let epochs = source.load_into(&mut trainer)?;

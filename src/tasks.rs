@@ -303,10 +303,7 @@ pub fn register<T: Task>() -> Result<(), ExperimentError> {
         return refuse(format!("an algorithm is registered as `{name}`, and its section would be the task's"));
     }
     for (i, measure) in T::MEASURES.iter().enumerate() {
-        let mut chars = measure.chars();
-        if !chars.next().is_some_and(|c| c.is_ascii_lowercase())
-            || !chars.all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_')
-        {
+        if !crate::algorithms::is_lowercase_key(measure) {
             return refuse(format!("its measure `{measure}` is not a lowercase key (a-z, 0-9 and _, from a letter)"));
         }
         if T::MEASURES[..i].contains(measure) {
@@ -506,7 +503,9 @@ mod tests {
     fn a_name_finds_one_task() {
         register::<Reach>().unwrap();
         register::<Reach>().unwrap();
-        assert!(matches!(register::<Impostor>(), Err(ExperimentError::Register { .. })));
+        let err = register::<Impostor>().unwrap_err();
+        assert!(matches!(err, ExperimentError::Register { .. }), "{err}");
+        assert!(!err.to_string().contains("the algorithm"), "a task is not called an algorithm: {err}");
         assert_eq!(find("reach_test").unwrap().task(), TypeId::of::<Reach>());
         let err = register::<Maddpg>().unwrap_err().to_string();
         assert!(err.contains("algorithm"), "{err}");
