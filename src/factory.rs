@@ -12,36 +12,27 @@ use crate::experiment::{ExperimentConfig, device_of};
 use crate::tasks::Task;
 
 impl ExperimentConfig {
-    /// `n` environments of the registered task the config names
-    /// ([`crate::tasks`]), with its settings.
+    /// `n` environments of the task the config names, the Shadow Hand or
+    /// a registered task of your own ([`crate::tasks`]), with its settings
+    /// ([`ExperimentConfig::task_settings`]).
     ///
     /// # Errors
-    /// [`ExperimentError::Config`] for key `task` when it names the Shadow
-    /// Hand (built from [`ExperimentConfig::env_config`] on an engine) or a
-    /// task this process has not registered; the task's own errors.
+    /// [`ExperimentError::Config`] for key `task` when it names a task this
+    /// process has not registered; the task's own errors.
     pub fn task_envs(&self, n: usize) -> Result<Vec<AnyEnv>, ExperimentError> {
-        let Some(settings) = self.task_settings() else {
-            return Err(ExperimentError::config(
-                "task",
-                "the Shadow Hand is built from `env` on an engine (ExperimentConfig::env_config)",
-            ));
-        };
-        settings.envs(n)
+        self.task_settings()?.envs(n)
     }
 
-    /// Task `T`'s settings in this config, as read when it was loaded.
+    /// Task `T`'s settings in this config ([`ExperimentConfig::task_settings`]).
     ///
     /// # Errors
     /// [`ExperimentError::Config`] for key `task` when the config's task is
     /// not `T`.
-    pub fn task_config<T: Task>(&self) -> Result<&T::Config, ExperimentError> {
-        match self.task_settings() {
-            Some(settings) => settings.get::<T>(),
-            None => Err(ExperimentError::config(
-                "task",
-                format!("the experiment's task is `{}`, not `{}`", self.task, T::NAME),
-            )),
-        }
+    pub fn task_config<T: Task>(&self) -> Result<T::Config, ExperimentError>
+    where
+        T::Config: Clone,
+    {
+        self.task_settings()?.get::<T>().cloned()
     }
 
     /// Builds the learner and the trainer on `env`, checking everything that

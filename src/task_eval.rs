@@ -153,9 +153,10 @@ pub fn evaluate_task(
     source: &Source,
 ) -> Result<TaskEvalReport, ExperimentError> {
     let start = Instant::now();
-    let settings = config
-        .task_settings()
-        .ok_or_else(|| ExperimentError::config("task", "the Shadow Hand is evaluated by fmsr::evaluate"))?;
+    if config.is_shadow_hand() {
+        return Err(ExperimentError::config("task", "the Shadow Hand is evaluated by fmsr::evaluate"));
+    }
+    let settings = config.task_settings()?;
     let env = settings.envs(1)?.pop().ok_or_else(|| ExperimentError::config("task", "no environment"))?;
     let features = env.spec().features.clone();
     let mut trainer = config.build_trainer(vec![env])?;

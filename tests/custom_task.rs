@@ -86,7 +86,7 @@ fn a_registered_task_runs_through_the_fmsr_command() {
     let config = ExperimentConfig::from_toml(CONFIG, "reach.toml".as_ref()).unwrap();
     assert_eq!(config.label(), "Dense+FMSR+IS, alpha 0.05, team_reach");
     let settings = config.task_config::<Reach>().unwrap();
-    assert_eq!(*settings, TeamReachConfig { episode_len: 12, step_size: 0.25, ..TeamReachConfig::default() });
+    assert_eq!(settings, TeamReachConfig { episode_len: 12, step_size: 0.25, ..TeamReachConfig::default() });
     assert_eq!(config.task_envs(2).unwrap().len(), 2);
     // The saved config reads back as the same experiment, every setting written out.
     let saved = config.to_toml().unwrap();

@@ -162,7 +162,8 @@ fn crc(values: impl Iterator<Item = f32>) -> u32 {
 
 fn trace(algorithm: &str, sharing: &str) -> Trace {
     let config = config(algorithm, sharing);
-    let envs = (0..config.trainer.num_envs()).map(|_| config.env_config().init().unwrap()).collect();
+    // Built through the Shadow Hand's registry entry, as `fmsr train` builds it.
+    let envs = config.task_envs(config.trainer.num_envs()).unwrap();
     let mut trainer = config.build_trainer(envs).unwrap();
     trainer.train(|_, _| Ok(())).unwrap();
     let history = trainer

@@ -249,24 +249,16 @@ fn train_with(args: &TrainArgs, comm: Arc<dyn Communicator>) -> Result<RunDir> {
         }
     }
     let progress = Progress::new(&config, done, rank == 0 && !args.quiet);
-    let n = config.trainer.worker_envs(comm.workers())?;
-    if !config.is_shadow_hand() {
-        let envs = config.task_envs(n)?;
-        return train_on(args, &config, dir, envs, comm, progress);
-    }
-    let envs = (0..n)
-        .map(|_| config.env_config().init_engine(config.engine))
-        .collect::<Result<Vec<_>, _>>()
-        .context(|| format!("building the {} Shadow Hand", config.engine.key()))?;
+    let envs = config.task_envs(config.trainer.worker_envs(comm.workers())?)?;
     train_on(args, &config, dir, envs, comm, progress)
 }
 
 /// Trains `config` on `envs` into `dir`, as `args` say (new, resumed, rescued).
-fn train_on<E: Env + Send>(
+fn train_on(
     args: &TrainArgs,
     config: &ExperimentConfig,
     dir: RunDir,
-    envs: Vec<E>,
+    envs: Vec<AnyEnv>,
     comm: Arc<dyn Communicator>,
     mut progress: Progress,
 ) -> Result<RunDir> {

@@ -67,7 +67,7 @@ use fmsr_nn::{ConfiguredRule, CriticTying, Device, DeviceSpec, NetworkConfig, Te
 
 use crate::algorithms::{self, AlgorithmSettings};
 pub use crate::stack::Stack;
-use crate::tasks::{self, SHADOW_HAND, TaskSettings};
+use crate::tasks::{self, SHADOW_HAND, ShadowHandSettings, ShadowHandTask, TaskSettings};
 
 /// The timestep of the Shadow Hand model (s); one env step is `substeps` of them.
 pub const MODEL_TIMESTEP: f64 = 0.002;
@@ -586,12 +586,22 @@ impl ExperimentConfig {
         self.task == SHADOW_HAND
     }
 
-    /// A registered task's settings (its `[<task>]` section, read once as
-    /// the task's own type); `None` for the Shadow Hand, whose settings are
-    /// `env`.
-    #[must_use]
-    pub fn task_settings(&self) -> Option<&TaskSettings> {
-        self.task_settings.as_ref()
+    /// The task's settings, as its registry entry builds environments of
+    /// them: a task of your own crate's `[<task>]` section, read once as the
+    /// task's own type when the config was loaded; the Shadow Hand's
+    /// `engine` and `env` as they are now, with the method's task reward
+    /// ([`ExperimentConfig::env_config`]).
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] for key `task` when the Shadow Hand's
+    /// entry is not fmsr's own.
+    pub fn task_settings(&self) -> Result<TaskSettings, ExperimentError> {
+        match &self.task_settings {
+            Some(settings) => Ok(settings.clone()),
+            None => {
+                TaskSettings::new::<ShadowHandTask>(ShadowHandSettings { engine: self.engine, env: self.env_config() })
+            }
+        }
     }
 
     /// Which teammates' actions the chosen algorithm's actor loss takes.

@@ -31,14 +31,15 @@
 //! # Ok::<(), fmsr::error::ExperimentError>(())
 //! ```
 //!
-//! The Shadow Hand is the task `"shadow_hand"`, every experiment's default:
-//! its settings are the `[env]` section and `engine`, and its evaluation
-//! measures the grasp as the paper does ([`crate::evaluate`]). A registered
-//! task reads its `[<name>]` section instead (keys it does not have are
-//! refused naming them, and the run's `config.toml` writes every setting
-//! out), and is evaluated by the measures every task has
-//! ([`crate::task_eval`]). The registry is one per process, as the command
-//! line that reads configs is.
+//! The Shadow Hand is the task `"shadow_hand"` ([`ShadowHandTask`]), every
+//! experiment's default, in the registry from the start and trained through
+//! the same entry as yours. Its settings are the `[env]` section and
+//! `engine`, and its evaluation measures the grasp as the paper does
+//! ([`crate::evaluate`]). A task of your own reads its `[<name>]` section
+//! instead (keys it does not have are refused naming them, and the run's
+//! `config.toml` writes every setting out), and is evaluated by the
+//! measures every task has and its own ([`crate::task_eval`]). The registry
+//! is one per process, as the command line that reads configs is.
 
 use std::any::{Any, TypeId};
 use std::collections::BTreeMap;
@@ -51,6 +52,10 @@ use serde::Serialize;
 use serde::de::DeserializeOwned;
 
 use crate::error::ExperimentError;
+
+mod shadow_hand;
+
+pub use self::shadow_hand::{ShadowHandSettings, ShadowHandTask};
 
 /// The name of the Shadow Hand task, the default of every experiment.
 pub const SHADOW_HAND: &str = "shadow_hand";
@@ -117,6 +122,22 @@ impl TaskSettings {
         let entry = find(name)?;
         let config = entry.resolve(section)?;
         Ok(Self { entry, config })
+    }
+
+    /// Task `T`'s settings as given, for settings made in code rather than
+    /// read from a section.
+    ///
+    /// # Errors
+    /// [`ExperimentError::Config`] for key `task` when `T` is not registered.
+    pub fn new<T: Task>(config: T::Config) -> Result<Self, ExperimentError> {
+        let entry = find(T::NAME)?;
+        if entry.task() != TypeId::of::<T>() {
+            return Err(ExperimentError::config(
+                "task",
+                format!("another task than the one given is registered as `{}`", T::NAME),
+            ));
+        }
+        Ok(Self { entry, config: Arc::new(config) })
     }
 
     /// The task's registered name.
@@ -280,7 +301,11 @@ impl<T: Task> Entry for TaskEntry<T> {
 
 type Registry = BTreeMap<&'static str, Arc<dyn Entry>>;
 
-static REGISTRY: LazyLock<RwLock<Registry>> = LazyLock::new(|| RwLock::new(Registry::new()));
+/// The registry, holding the Shadow Hand from the start.
+static REGISTRY: LazyLock<RwLock<Registry>> = LazyLock::new(|| {
+    let hand: Arc<dyn Entry> = Arc::new(TaskEntry::<ShadowHandTask>(PhantomData));
+    RwLock::new(Registry::from([(SHADOW_HAND, hand)]))
+});
 
 /// Registers task `T` under its name, so that configs may say
 /// `task = "<T::NAME>"` and set its settings in `[<T::NAME>]`.
@@ -296,7 +321,7 @@ pub fn register<T: Task>() -> Result<(), ExperimentError> {
     if let Err(reason) = crate::algorithms::check_key(name) {
         return refuse(reason);
     }
-    if name == SHADOW_HAND {
+    if name == SHADOW_HAND && TypeId::of::<T>() != TypeId::of::<ShadowHandTask>() {
         return refuse("`shadow_hand` is fmsr's own task".into());
     }
     if crate::algorithms::names().contains(&name) {
@@ -321,13 +346,13 @@ pub fn register<T: Task>() -> Result<(), ExperimentError> {
     }
 }
 
-/// The tasks' names, `shadow_hand` and every registered one, sorted.
+/// The registered tasks' names, `shadow_hand` among them, sorted.
 #[must_use]
 pub fn names() -> Vec<&'static str> {
     names_of(&REGISTRY.read().unwrap_or_else(PoisonError::into_inner))
 }
 
-/// The entry of registered task `name` (not `shadow_hand`).
+/// The entry of registered task `name`.
 ///
 /// # Errors
 /// [`ExperimentError::Config`] for key `task`, listing the tasks.
@@ -345,9 +370,7 @@ pub(crate) fn find(name: &str) -> Result<Arc<dyn Entry>, ExperimentError> {
 }
 
 fn names_of(registry: &Registry) -> Vec<&'static str> {
-    let mut names: Vec<_> = registry.keys().copied().chain([SHADOW_HAND]).collect();
-    names.sort_unstable();
-    names
+    registry.keys().copied().collect()
 }
 
 /// Takes the task of an experiment's TOML `value` out of it: its name
@@ -392,149 +415,4 @@ pub(crate) fn take_section(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use fmsr_envs::team_reach::{TeamReach, TeamReachConfig};
-
-    struct Reach;
-
-    impl Task for Reach {
-        const NAME: &'static str = "reach_test";
-        type Config = TeamReachConfig;
-        type Env = TeamReach;
-
-        fn env(config: &TeamReachConfig) -> Result<TeamReach, fmsr_envs::EnvError> {
-            config.init()
-        }
-    }
-
-    struct Impostor;
-
-    impl Task for Impostor {
-        const NAME: &'static str = "reach_test";
-        type Config = TeamReachConfig;
-        type Env = TeamReach;
-
-        fn env(config: &TeamReachConfig) -> Result<TeamReach, fmsr_envs::EnvError> {
-            config.init()
-        }
-    }
-
-    struct Maddpg;
-
-    impl Task for Maddpg {
-        const NAME: &'static str = "maddpg";
-        type Config = TeamReachConfig;
-        type Env = TeamReach;
-
-        fn env(config: &TeamReachConfig) -> Result<TeamReach, fmsr_envs::EnvError> {
-            config.init()
-        }
-    }
-
-    /// A task whose measures are as `MEASURES` names and `VALUES` gives.
-    struct Measured<const K: usize>;
-
-    macro_rules! measured {
-        ($k:literal, $name:literal, $measures:expr, $values:expr) => {
-            impl Task for Measured<$k> {
-                const NAME: &'static str = $name;
-                type Config = TeamReachConfig;
-                type Env = TeamReach;
-
-                fn env(config: &TeamReachConfig) -> Result<TeamReach, fmsr_envs::EnvError> {
-                    config.init()
-                }
-
-                const MEASURES: &'static [&'static str] = $measures;
-
-                fn measure(_: &TeamReach, episode: &Episode) -> Vec<f64> {
-                    $values(episode)
-                }
-            }
-        };
-    }
-
-    measured!(0, "measured_ok", &["steps", "last_reward"], |e: &Episode| vec![e.infos.len() as f64, -1.0]);
-    measured!(1, "measured_short", &["steps", "last_reward"], |e: &Episode| vec![e.infos.len() as f64]);
-    measured!(2, "measured_nan", &["steps"], |_: &Episode| vec![f64::NAN]);
-    measured!(3, "measured_upper", &["Steps"], |_: &Episode| vec![0.0]);
-    measured!(4, "measured_twice", &["steps", "steps"], |_: &Episode| vec![0.0, 0.0]);
-
-    // Guards a task's own evaluation measures: names that are keys, each
-    // once, checked at registration; one finite value a name for each
-    // episode, from the task's own environment, else an error naming the
-    // task and the measure.
-    #[test]
-    fn a_tasks_measures_are_checked() {
-        for err in [register::<Measured<3>>(), register::<Measured<4>>()] {
-            let err = err.unwrap_err().to_string();
-            assert!(err.contains("measure") && err.contains("teps"), "{err}");
-        }
-        register::<Reach>().unwrap();
-        let reach = TaskSettings::resolve("reach_test", None).unwrap();
-        let mut env = reach.envs(1).unwrap().pop().unwrap();
-        let mut episode = Episode { observations: vec![env.reset(3).unwrap()], ..Episode::default() };
-        let zero = JointAction::zeros(env.spec().action_dim);
-        for _ in 0..4 {
-            let outcome = env.step(&zero).unwrap();
-            episode.observations.push(outcome.observation);
-            episode.actions.push(zero.clone());
-            episode.infos.push(outcome.info);
-        }
-        assert!(reach.measures().is_empty() && reach.measure(&env, &episode).unwrap().is_empty());
-        register::<Measured<0>>().unwrap();
-        register::<Measured<1>>().unwrap();
-        register::<Measured<2>>().unwrap();
-        let measure = |task: &str| TaskSettings::resolve(task, None).unwrap().measure(&env, &episode);
-        assert_eq!(measure("measured_ok").unwrap(), [4.0, -1.0]);
-        let err = measure("measured_short").unwrap_err().to_string();
-        assert!(err.contains("measured_short") && err.contains("gave 1 measure value(s)"), "{err}");
-        let err = measure("measured_nan").unwrap_err().to_string();
-        assert!(err.contains("measured_nan") && err.contains("`steps` is NaN"), "{err}");
-        let other = AnyEnv::new(env);
-        let err = TaskSettings::resolve("measured_ok", None).unwrap().measure(&other, &episode).unwrap_err();
-        assert!(err.to_string().contains("measured_ok"), "{err}");
-    }
-
-    // Guards the registry's promise: a name finds one task. A second task
-    // of a taken name, an algorithm's name and the Shadow Hand's are refused.
-    #[test]
-    fn a_name_finds_one_task() {
-        register::<Reach>().unwrap();
-        register::<Reach>().unwrap();
-        let err = register::<Impostor>().unwrap_err();
-        assert!(matches!(err, ExperimentError::Register { .. }), "{err}");
-        assert!(!err.to_string().contains("the algorithm"), "a task is not called an algorithm: {err}");
-        assert_eq!(find("reach_test").unwrap().task(), TypeId::of::<Reach>());
-        let err = register::<Maddpg>().unwrap_err().to_string();
-        assert!(err.contains("algorithm"), "{err}");
-        assert!(names().contains(&SHADOW_HAND) && names().contains(&"reach_test"));
-        let err = find("no_such_task").map(|_| ()).unwrap_err().to_string();
-        assert!(err.contains("no_such_task") && err.contains("shadow_hand"), "{err}");
-    }
-
-    // Guards reading a section once into the task's own type: defaults for
-    // what it leaves out, an unknown key named, the typed settings given
-    // back only as their own task's.
-    #[test]
-    fn a_section_is_read_as_the_tasks_settings() {
-        register::<Reach>().unwrap();
-        let all = TaskSettings::resolve("reach_test", None).unwrap();
-        assert_eq!(all.to_table().unwrap(), toml::Table::try_from(TeamReachConfig::default()).unwrap());
-        let err = TaskSettings::resolve("reach_test", Some(&"warp = 1".parse().unwrap())).unwrap_err();
-        assert!(err.to_string().contains("`reach_test.warp`"), "{err}");
-        let env = all.envs(1).unwrap().pop().unwrap();
-        assert_eq!(env.spec(), TeamReachConfig::default().init().unwrap().spec());
-        let mut other = toml::Table::try_from(TeamReachConfig::default()).unwrap();
-        let key = other.keys().next().unwrap().clone();
-        let changed = TaskSettings::resolve(
-            "reach_test",
-            Some(&std::iter::once((key.clone(), other.remove(&key).unwrap())).collect()),
-        );
-        assert_eq!(changed.unwrap(), all, "a section that repeats the defaults reads as the defaults");
-        assert!(all.get::<Reach>().is_ok());
-        let err = all.get::<Maddpg>().unwrap_err().to_string();
-        assert!(err.contains("reach_test") && err.contains("maddpg"), "{err}");
-    }
-}
+mod tests;
