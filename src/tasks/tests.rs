@@ -4,54 +4,40 @@ use super::*;
 use fmsr_envs::shadow_hand::Engine;
 use fmsr_envs::team_reach::{TeamReach, TeamReachConfig};
 
-struct Reach;
+/// TeamReach registered as a task of name `$name`.
+macro_rules! reach_task {
+    ($(#[$doc:meta])* $task:ident, $name:literal) => {
+        $(#[$doc])*
+        struct $task;
 
-impl Task for Reach {
-    const NAME: &'static str = "reach_test";
-    type Config = TeamReachConfig;
-    type Env = TeamReach;
+        impl Task for $task {
+            const NAME: &'static str = $name;
+            type Config = TeamReachConfig;
+            type Env = TeamReach;
 
-    fn env(config: &TeamReachConfig) -> Result<TeamReach, fmsr_envs::EnvError> {
-        config.init()
-    }
+            fn env(config: &TeamReachConfig) -> Result<TeamReach, fmsr_envs::EnvError> {
+                config.init()
+            }
+        }
+    };
 }
 
-struct Impostor;
-
-impl Task for Impostor {
-    const NAME: &'static str = "reach_test";
-    type Config = TeamReachConfig;
-    type Env = TeamReach;
-
-    fn env(config: &TeamReachConfig) -> Result<TeamReach, fmsr_envs::EnvError> {
-        config.init()
-    }
-}
-
-struct Maddpg;
-
-impl Task for Maddpg {
-    const NAME: &'static str = "maddpg";
-    type Config = TeamReachConfig;
-    type Env = TeamReach;
-
-    fn env(config: &TeamReachConfig) -> Result<TeamReach, fmsr_envs::EnvError> {
-        config.init()
-    }
-}
-
-/// A task that claims the Shadow Hand's name.
-struct Hand;
-
-impl Task for Hand {
-    const NAME: &'static str = "shadow_hand";
-    type Config = TeamReachConfig;
-    type Env = TeamReach;
-
-    fn env(config: &TeamReachConfig) -> Result<TeamReach, fmsr_envs::EnvError> {
-        config.init()
-    }
-}
+reach_task!(Reach, "reach_test");
+reach_task!(
+    /// Another task of `Reach`'s name.
+    Impostor,
+    "reach_test"
+);
+reach_task!(
+    /// A task of an algorithm's name.
+    Maddpg,
+    "maddpg"
+);
+reach_task!(
+    /// A task that claims the Shadow Hand's name.
+    Hand,
+    "shadow_hand"
+);
 
 /// A task whose measures are as `MEASURES` names and `VALUES` gives.
 struct Measured<const K: usize>;
