@@ -30,6 +30,15 @@ impl<T, E: std::error::Error + Send + Sync + 'static> Context<T> for Result<T, E
     }
 }
 
+/// The run's Shadow Hand on `engine` (which `fmsr eval` and `render` may
+/// choose apart from the one it trained on).
+fn hand_on(
+    config: &ExperimentConfig,
+    engine: Engine,
+) -> Result<fmsr_envs::shadow_hand::ShadowHand<fmsr_envs::shadow_hand::EnginePhysics>> {
+    config.env_config().init_engine(engine).context(|| format!("building the {} Shadow Hand", engine.key()))
+}
+
 /// A refused argument.
 fn refuse<T>(arg: &'static str, reason: String) -> Result<T> {
     Err(ExperimentError::Cli { arg, reason })
@@ -348,8 +357,7 @@ fn eval_once(run: &std::path::Path, choice: &EvalChoice) -> Result<()> {
     let engine = choice.engine.unwrap_or(config.engine);
     let set = choice.set;
     let dt = crate::experiment::MODEL_TIMESTEP * config.env.substeps as f64;
-    let env =
-        config.env_config().init_engine(engine).context(|| format!("building the {} Shadow Hand", engine.key()))?;
+    let env = hand_on(&config, engine)?;
     let what = format!("{} on {} ({} episodes)", set.key(), engine.key(), config.eval.episodes);
     let mut shown = StageProgress::new(&format!("eval {}", run.display()), config.eval.episodes);
     shown.stage(&format!("playing the {what}"));
@@ -537,8 +545,7 @@ pub(super) fn render(args: &RenderArgs) -> Result<Vec<PathBuf>> {
         Some(out) => RenderTarget::from_path(out)?,
         None => source.render_target(args.episode, Some(engine))?,
     };
-    let env =
-        config.env_config().init_engine(engine).context(|| format!("building the {} Shadow Hand", engine.key()))?;
+    let env = hand_on(&config, engine)?;
     let mut shown = StageProgress::new(&format!("render {}", args.run.display()), 3);
     shown.stage(&format!("playing test episode {} on {}", args.episode, engine.key()));
     let film = record_source_episode(&config, env, engine, &source, args.episode)?;
