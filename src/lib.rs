@@ -50,8 +50,10 @@
 //! train, resume, export and evaluate it with any registered algorithm,
 //! the shadow rewards of its features and information sharing over its
 //! agents; [`task_eval`] measures what every task has. The Shadow Hand is
-//! the task `"shadow_hand"`, the default. `examples/downstream` registers
-//! its `Herd` that way and runs it through [`cli::run`].
+//! the task `"shadow_hand"` ([`tasks::ShadowHandTask`]), the default, in the
+//! registry from the start and trained through it as yours is.
+//! `examples/downstream` registers its `Herd` that way and runs it through
+//! [`cli::run`].
 //!
 //! ## Features
 //!
