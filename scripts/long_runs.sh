@@ -612,6 +612,7 @@ write_section() {
   python3 "$repo/scripts/long_runs_record.py" --home "$home" --results "$results" \
     --records "$records" --pretrained "$pretrained" --commit "$(git -C "$repo" rev-parse --short HEAD)" \
     --heading "$heading" --suffix "$suffix"
+  report_again
 }
 
 # Builds the work tree's release binary with MuJoCo, the one every evaluation
@@ -643,6 +644,16 @@ record() {
   evaluate_snapshots
   rescue_and_best
   write_section
+}
+
+# The reproduction report reads the campaigns' records in the repository
+# (docs/results/paper_budget, paper_stack; a campaign in progress by its
+# snapshots): written again with the section, so that its test (CI) keeps
+# matching them. Records kept elsewhere (FMSR_LONG_RUNS_RECORDS) leave it alone.
+report_again() {
+  case $records in
+    "$repo"/docs/results/*) python3 "$repo/scripts/reproduction_report.py" ;;
+  esac
 }
 
 # Writes $1 (an evaluation's JSON) with `fmsr eval ARGS... --out`, unless an
@@ -781,12 +792,6 @@ finish() {
     nice -n 5 "$fmsr" report "${policies[@]}" --out "$records/report"
   fi
   write_section
-  # The reproduction report reads the campaigns' records in the repository
-  # (docs/results/paper_budget, paper_stack): written again when a campaign of
-  # the repository's records ends, so that its test (CI) keeps matching them.
-  case $records in
-    "$repo"/docs/results/*) [ $# -ne 0 ] || python3 "$repo/scripts/reproduction_report.py" ;;
-  esac
   # What the policies add to the tracked tree (kept under 56 MiB: scripts/check_tree_size.sh).
   du -sh "${policies[@]}"
 }

@@ -7,11 +7,13 @@ is what the records give).
     scripts/reproduction_report.py [--out DIR]      # default docs/
 
 What it reads: each paper-budget pair's records (docs/results/paper_budget/,
-fmsr's own defaults; docs/results/paper_stack/, the paper's stack, once its
-runs have final evaluations), their metrics.csv (the per-epoch success at the
-training threshold, the paper's Fig. 3) and final/*.json (the fixed test set,
-the 500 trials, on MuJoCo), and the table of departures in docs/design.md
-("The paper's stack"). The paper's numbers are its Tables I and II (egg).
+fmsr's own defaults; docs/results/paper_stack/, the paper's stack), their
+metrics.csv (the per-epoch success at the training threshold, the paper's
+Fig. 3) and final/*.json (the fixed test set, the 500 trials, on MuJoCo), or,
+while a campaign trains, its snapshots' evaluations (snapshots/*.json, written
+by `scripts/long_runs.sh record`, which runs this script again); the lite
+campaigns' records; and the table of departures in docs/design.md ("The
+paper's stack"). The paper's numbers are its Tables I and II (egg).
 """
 import argparse
 import csv
@@ -104,6 +106,74 @@ def load(records):
         arms[label] = {"dir": d, "test": test, "trials": trials, "metrics": metrics, "within": within,
                        "config": (d / "config.toml").read_text()}
     return arms
+
+
+def interim(records):
+    """A campaign still training: every snapshot both arms have on the test set and validation, oldest first,
+    each as {"epoch", arm: {"test", "val", "within", "drops"}}, with the epochs on record; None without one."""
+    arms, epochs = {}, []
+    for label, run in RUNS.items():
+        d = records / run
+        if not (d / "metrics.csv").exists():
+            return None
+        with open(d / "metrics.csv") as f:
+            epochs.append(sum(1 for _ in csv.DictReader(f)))
+        snaps = {}
+        for p in sorted((d / "snapshots").glob("epoch-*.test.json")):
+            k = int(p.name.split(".")[0].split("-")[1])
+            test, val = read_json(p), read_json(d / "snapshots" / f"epoch-{k:03d}.validation.json")
+            if test is None or val is None:
+                continue
+            within = long_runs_final.training_threshold(d / "config.toml")
+            snaps[k] = {"test": test["outcomes"], "val": val["outcomes"], "drops": test["outcomes"]["drop"],
+                        "within": sum(1 for r in test["records"] if r["final_error"] < within and not r["dropped"]),
+                        "contacts": test["stability"]["total_contacts"]}
+        arms[label] = snaps
+    common = sorted(set.intersection(*(set(s) for s in arms.values())))
+    if not common:
+        return None
+    return {"epochs": min(epochs), "planned": 400,
+            "snapshots": [{"epoch": k, **{label: arms[label][k] for label in ARMS}} for k in common]}
+
+
+def interim_claims(snap):
+    """The two headline claims at one snapshot, as claims() words them."""
+    a, b = snap["Dense+FMSR+IS"], snap["Dense"]
+    iv = newcombe(a["test"]["successes"], a["test"]["episodes"], b["test"]["successes"], b["test"]["episodes"])
+    d = a["test"]["successes"] / a["test"]["episodes"] - b["test"]["successes"] / b["test"]["episodes"]
+    rows = [("test", f"{100 * d:+.0f} pts {pts(iv)}", verdict(iv, +1))]
+    n = a["test"]["episodes"]
+    iv = newcombe(a["within"], n, b["within"], b["test"]["episodes"])
+    d = a["within"] / n - b["within"] / b["test"]["episodes"]
+    rows.append(("within", f"{100 * d:+.0f} pts {pts(iv)}", verdict(iv, +1)))
+    return rows
+
+
+def interim_section(name, what, progress):
+    """The section of a campaign still training: its snapshots on the test set, each arm and the difference."""
+    lines = [f"### {what[0].upper()}{what[1:]}\n",
+             f"In progress: {progress['epochs']} of {progress['planned']} epochs on record, one seed an arm "
+             f"(records: [`docs/results/{name}/`](results/{name}/), which says where the runs stand). What follows "
+             "are snapshots, the policy at that epoch on the fixed test set (100 episodes at 0.4 rad, turned and "
+             "held, by the campaign's own distance) and 100 validation episodes; the final comparison is the "
+             "policy after the last epoch and waits for it. A verdict at a snapshot holds for that snapshot of "
+             "this seed pair.\n",
+             "| Snapshot (epoch, from 0) | Dense+FMSR+IS test, 0.4 rad | Dense test, 0.4 rad | Difference | Verdict "
+             "| Within 0.1 rad, not dropped | Difference | Validation | Drops (test) |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for s in progress["snapshots"]:
+        a, b = s["Dense+FMSR+IS"], s["Dense"]
+        (_, test, word), (_, within, _) = interim_claims(s)
+        n = a["test"]["episodes"]
+        lines.append(
+            f"| {s['epoch']} | {pct(a['test']['successes'], n)} | {pct(b['test']['successes'], b['test']['episodes'])} "
+            f"| {test} | {word} | {100 * a['within'] / n:.0f} % against {100 * b['within'] / b['test']['episodes']:.0f} % "
+            f"| {within} | "
+            f"{100 * a['val']['successes'] / a['val']['episodes']:.0f} % against "
+            f"{100 * b['val']['successes'] / b['val']['episodes']:.0f} % | {a['drops']} against {b['drops']} |")
+    lines.append("\nPercentages of two arms read Dense+FMSR+IS against Dense; the within-0.1 rad share is the "
+                 "training claim's measure at the paper's budget, as above.\n")
+    return "\n".join(lines) + "\n"
 
 
 def pct(k, n):
@@ -341,14 +411,19 @@ HEADLINE = {"test": "succeeds more often at 0.4 rad (Table I)", "curve": "learns
 def summary(paper_rows, lite_headline):
     """The report's opening table: the paper's two headline claims (Table I's success at 0.4 rad and Fig. 3's
     learning at the training threshold) by every comparison on record, each with its verdict. `paper_rows`:
-    each paper-budget campaign's claims() rows (None while not on record); `lite_headline`: lite_section's."""
+    each paper-budget campaign's claims() rows (None while not on record) and its interim() snapshots (None
+    without them); `lite_headline`: lite_section's."""
     lines = ["## In short\n",
              "The paper's two headline claims on the egg, Dense+FMSR+IS against Dense, by every comparison "
              "on record (the sections below give every measure, the setup and the departures):\n",
              "| Comparison | Seeds an arm | Claim | Dense+FMSR+IS minus Dense (95 % interval) | Verdict |",
              "|---|---|---|---|---|"]
-    for what, rows in paper_rows:
-        # claims() puts the two headline claims first, in HEADLINE's order.
+    for what, rows, progress in paper_rows:
+        # claims() and interim_claims() put the two headline claims first, in HEADLINE's order.
+        if rows is None and progress is not None:
+            last = progress["snapshots"][-1]
+            rows = interim_claims(last)
+            what += f" (in progress: the snapshot of epoch {last['epoch']} of {progress['planned']})"
         for i, label in enumerate(HEADLINE.values()):
             cells = "not yet on record |" if rows is None else f"{rows[i][1]} | {rows[i][2]}"
             lines.append(f"| Paper's budget, {what} | 1 | {label} | {cells} |")
@@ -409,10 +484,12 @@ def main():
     for name, what in CAMPAIGNS:
         arms = load(REPO / "docs/results" / name)
         if arms is None:
-            parts.append((name, what, None, None))
+            progress = interim(REPO / "docs/results" / name)
+            section = None if progress is None else interim_section(name, what, progress)
+            parts.append((name, what, section, None, progress))
             continue
         section, rows = campaign_section(name, what, arms, out)
-        parts.append((name, what, section, rows))
+        parts.append((name, what, section, rows, None))
     lite, missing, lite_headline = lite_section()
     text = ["# Reproduction report\n",
             "Written by `scripts/reproduction_report.py` from the committed records (run it again to get these "
@@ -430,18 +507,20 @@ def main():
             "test episodes. A claim is **supported** when the interval of the difference lies on the paper's "
             "side of zero, **contradicted** when it lies on the other, and **cannot tell** otherwise; with one "
             "seed an arm, a verdict holds for that seed pair, not for the method across seeds.\n",
-            summary([(short_name(what), rows) for _, what, _, rows in parts], lite_headline),
+            summary([(short_name(what), rows, progress) for _, what, _, rows, progress in parts], lite_headline),
             "## Where fmsr departs from the paper, gym and HER baselines\n",
             "From [docs/design.md, \"The paper's stack\"](design.md#the-papers-stack); `stack = \"paper\"` "
             "takes the paper's side wherever the table says so.\n",
             departures(),
             "## Results at the paper's budget\n"]
-    for name, what, section, rows in parts:
+    for name, what, section, rows, _ in parts:
         if section is None:
             text.append(f"### {what[0].upper()}{what[1:]}\n\nNot yet: its runs have no final evaluations "
                         f"([`docs/results/{name}/`](results/{name}/) says where they stand).\n")
             continue
         text.append(section)
+        if rows is None:
+            continue
         text += ["**The paper's claims on the egg, by this pair:**\n",
                  "| Claim | Ours (difference, 95 % interval) | Verdict |", "|---|---|---|"]
         text += [f"| {c} | {v} | {d} |" for c, v, d in rows]

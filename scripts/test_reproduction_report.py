@@ -22,6 +22,12 @@ assert round(100 * lo) == 96 and hi == 1.0
 lo, hi = rr.newcombe(46, 100, 76, 100)
 assert (round(100 * lo), round(100 * hi)) == (-42, -17), (lo, hi)
 
+# A campaign in progress is read at its latest snapshot: 59 of 100 against 82, 2 within 0.1 rad against 4.
+arm = lambda k, within: {"test": {"successes": k, "episodes": 100}, "within": within}
+(_, test, word), (_, close, close_word) = rr.interim_claims({"Dense+FMSR+IS": arm(59, 2), "Dense": arm(82, 4)})
+assert (test, word) == ("-23 pts [-35, -10]", "contradicted"), (test, word)
+assert (close, close_word) == ("-2 pts [-8, +4]", "cannot tell"), (close, close_word)
+
 with tempfile.TemporaryDirectory() as tmp:
     subprocess.run([sys.executable, str(REPO / "scripts/reproduction_report.py"), "--out", tmp], check=True,
                    stdout=subprocess.DEVNULL)
