@@ -11,7 +11,7 @@ use std::hint::black_box;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use fmsr_core::Env;
 use fmsr_core::spec::JointAction;
-use fmsr_envs::shadow_hand::{RapierSettings, ShadowHand, ShadowHandConfig, step_batch};
+use fmsr_envs::shadow_hand::{RapierHand, RapierSettings, ShadowHand, ShadowHandConfig, step_batch};
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
 
@@ -19,7 +19,7 @@ fn random_action(rng: &mut StdRng) -> JointAction {
     JointAction((0..20).map(|_| rng.random_range(-1.0..1.0)).collect())
 }
 
-fn env(rapier: RapierSettings, seed: u64) -> ShadowHand {
+fn env(rapier: RapierSettings, seed: u64) -> ShadowHand<RapierHand> {
     let mut env = ShadowHandConfig { rapier, ..Default::default() }.init().expect("model fetched");
     env.reset(seed).expect("reset");
     env
@@ -59,7 +59,7 @@ fn batched(c: &mut Criterion) {
     group.sample_size(10);
     let threads = std::thread::available_parallelism().map_or(1, std::num::NonZero::get);
     for n in [1, 2, 4, 8] {
-        let mut envs: Vec<ShadowHand> = (0..n).map(|i| env(RapierSettings::default(), i as u64)).collect();
+        let mut envs: Vec<ShadowHand<RapierHand>> = (0..n).map(|i| env(RapierSettings::default(), i as u64)).collect();
         let mut rng = StdRng::seed_from_u64(2);
         group.throughput(Throughput::Elements(n as u64));
         let mut steps = 0u64;

@@ -10,7 +10,7 @@ pub enum EnvError {
     #[error(transparent)]
     Core(#[from] fmsr_core::CoreError),
     /// The engine is not compiled into this build.
-    #[error("engine `{engine}` needs the cargo feature `{feature}` (see README: MuJoCo)")]
+    #[error("engine `{engine}` needs the cargo feature `{feature}` of fmsr (or fmsr-envs), which this build left out")]
     EngineUnavailable {
         /// The engine's name.
         engine: &'static str,

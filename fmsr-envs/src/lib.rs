@@ -14,7 +14,12 @@
 //!
 //! ## Features
 //!
+//! - `rapier` (default): the rapier3d backend, pure Rust.
 //! - `mujoco`: the MuJoCo backend (run `scripts/setup_mujoco.sh` first).
+//!
+//! Without either, the hand's task, configs, model and renderer build but no
+//! physics: [`shadow_hand::ShadowHandConfig::init_engine`] names the missing
+//! feature in its error.
 #![warn(missing_docs)]
 
 pub mod error;
@@ -26,9 +31,11 @@ pub use error::EnvError;
 /// The items most users need.
 pub mod prelude {
     pub use crate::error::EnvError;
+    #[cfg(feature = "rapier")]
+    pub use crate::shadow_hand::RapierHand;
     pub use crate::shadow_hand::{
-        GoalDistance, HandAgent, HandObject, HandPhysics, RapierHand, RapierSettings, ShadowHand, ShadowHandConfig,
-        TouchObs, fetch_hand_assets,
+        GoalDistance, HandAgent, HandObject, HandPhysics, RapierSettings, ShadowHand, ShadowHandConfig, TouchObs,
+        fetch_hand_assets,
     };
     pub use crate::team_reach::{TeamReach, TeamReachConfig};
 }

@@ -40,7 +40,7 @@ fn dump(name: &str, image: &Image) {
     }
 }
 
-fn reset_view(env: &mut ShadowHand) -> HandView {
+fn reset_view(env: &mut ShadowHand<RapierHand>) -> HandView {
     env.reset(3).unwrap();
     env.view()
 }

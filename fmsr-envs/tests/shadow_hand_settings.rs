@@ -139,11 +139,12 @@ fn settings_table() {
 #[test]
 #[ignore = "prints env steps/s of batched stepping; about 20 s"]
 fn batch_scaling() {
-    use fmsr_envs::shadow_hand::{ShadowHand, step_batch};
+    use fmsr_envs::shadow_hand::{RapierHand, ShadowHand, step_batch};
     println!("| envs | rayon threads | env steps/s |");
     println!("|---|---|---|");
     for n in [1usize, 2, 4, 8] {
-        let mut envs: Vec<ShadowHand> = (0..n).map(|_| ShadowHandConfig::default().init().unwrap()).collect::<Vec<_>>();
+        let mut envs: Vec<ShadowHand<RapierHand>> =
+            (0..n).map(|_| ShadowHandConfig::default().init().unwrap()).collect::<Vec<_>>();
         for (i, e) in envs.iter_mut().enumerate() {
             e.reset(i as u64).unwrap();
         }

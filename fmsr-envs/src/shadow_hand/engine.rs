@@ -5,6 +5,8 @@
 //!
 //! The dispatch is one `match` per physics call, a few calls per env step,
 //! each of which runs `substeps` (20 in the paper's configs) physics steps.
+// A build with neither engine feature has no backend: every call's arguments go unused.
+#![cfg_attr(not(any(feature = "rapier", feature = "mujoco")), allow(unused_variables, unreachable_code))]
 
 use fmsr_core::env::ObjectContacts;
 use serde::{Deserialize, Serialize};
@@ -12,6 +14,7 @@ use serde::{Deserialize, Serialize};
 #[cfg(feature = "mujoco")]
 use super::mujoco::MujocoHand;
 use super::physics::HandPhysics;
+#[cfg(feature = "rapier")]
 use super::rapier::RapierHand;
 use super::{ShadowHand, ShadowHandConfig};
 use crate::error::EnvError;
@@ -20,7 +23,7 @@ use crate::error::EnvError;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
 pub enum Engine {
-    /// rapier3d, pure Rust (default).
+    /// rapier3d, pure Rust (default; cargo feature `rapier`, on by default).
     #[default]
     Rapier,
     /// MuJoCo 3.17 (cargo feature `mujoco`).
@@ -46,26 +49,29 @@ impl Engine {
         }
     }
 
-    /// Whether this build can run the engine (MuJoCo needs the cargo feature `mujoco`).
+    /// Whether this build can run the engine (each needs its cargo feature,
+    /// `rapier` or `mujoco`).
     ///
     /// ```
     /// use fmsr_envs::shadow_hand::Engine;
-    /// assert!(Engine::Rapier.available());
+    /// assert_eq!(Engine::Rapier.available(), cfg!(feature = "rapier"));
     /// assert_eq!(Engine::Mujoco.available(), cfg!(feature = "mujoco"));
     /// ```
     #[must_use]
     pub fn available(self) -> bool {
         match self {
-            Engine::Rapier => true,
+            Engine::Rapier => cfg!(feature = "rapier"),
             Engine::Mujoco => cfg!(feature = "mujoco"),
         }
     }
 }
 
-/// Either physics backend of the Shadow Hand, chosen by [`Engine`] at run time.
+/// Either physics backend of the Shadow Hand, chosen by [`Engine`] at run time
+/// (a variant per engine this build has: without either feature, none).
 #[derive(Debug)]
 pub enum EnginePhysics {
     /// rapier3d (boxed: its state is some 7 kB, MuJoCo's a pointer).
+    #[cfg(feature = "rapier")]
     Rapier(Box<RapierHand>),
     /// MuJoCo.
     #[cfg(feature = "mujoco")]
@@ -76,7 +82,8 @@ impl EnginePhysics {
     /// The engine this backend is.
     #[must_use]
     pub fn engine(&self) -> Engine {
-        match self {
+        match *self {
+            #[cfg(feature = "rapier")]
             EnginePhysics::Rapier(_) => Engine::Rapier,
             #[cfg(feature = "mujoco")]
             EnginePhysics::Mujoco(_) => Engine::Mujoco,
@@ -85,13 +92,23 @@ impl EnginePhysics {
 }
 
 /// Calls `$body` with `$p` bound to the backend inside `$self`.
+#[cfg(any(feature = "rapier", feature = "mujoco"))]
 macro_rules! dispatch {
     ($self:expr, $p:ident => $body:expr) => {
         match $self {
+            #[cfg(feature = "rapier")]
             EnginePhysics::Rapier($p) => $body,
             #[cfg(feature = "mujoco")]
             EnginePhysics::Mujoco($p) => $body,
         }
+    };
+}
+
+/// A build without engines has no `EnginePhysics` value to call.
+#[cfg(not(any(feature = "rapier", feature = "mujoco")))]
+macro_rules! dispatch {
+    ($self:expr, $p:ident => $body:expr) => {
+        match *$self {}
     };
 }
 
@@ -163,12 +180,36 @@ impl ShadowHandConfig {
     /// or `init_mujoco`.
     pub fn init_engine(self, engine: Engine) -> Result<ShadowHand<EnginePhysics>, EnvError> {
         let physics = match engine {
+            #[cfg(feature = "rapier")]
             Engine::Rapier => EnginePhysics::Rapier(Box::new(self.rapier_physics()?)),
+            #[cfg(not(feature = "rapier"))]
+            Engine::Rapier => return Err(EnvError::EngineUnavailable { engine: engine.key(), feature: "rapier" }),
             #[cfg(feature = "mujoco")]
             Engine::Mujoco => EnginePhysics::Mujoco(self.mujoco_physics(super::MujocoSettings::default())?),
             #[cfg(not(feature = "mujoco"))]
             Engine::Mujoco => return Err(EnvError::EngineUnavailable { engine: engine.key(), feature: "mujoco" }),
         };
         self.init_with(physics)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Guards the engines' features: an engine left out of the build is refused
+    /// by name, before any model is fetched, and one compiled in is available.
+    #[test]
+    fn an_engine_left_out_is_refused_by_its_feature() {
+        assert_eq!(Engine::Rapier.available(), cfg!(feature = "rapier"));
+        assert_eq!(Engine::Mujoco.available(), cfg!(feature = "mujoco"));
+        for engine in Engine::ALL.into_iter().filter(|e| !e.available()) {
+            match ShadowHandConfig::default().init_engine(engine) {
+                Err(EnvError::EngineUnavailable { engine: name, feature }) => {
+                    assert_eq!((name, feature), (engine.key(), engine.key()));
+                }
+                other => panic!("{engine:?} without its feature gave {other:?}"),
+            }
+        }
     }
 }

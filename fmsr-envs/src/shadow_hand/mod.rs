@@ -40,7 +40,14 @@ pub mod model;
 #[cfg(feature = "mujoco")]
 pub mod mujoco;
 pub mod physics;
+#[cfg(feature = "rapier")]
 pub mod rapier;
+/// The rapier backend's settings; the backend itself needs the feature `rapier`.
+#[cfg(not(feature = "rapier"))]
+pub mod rapier {
+    mod settings;
+    pub use self::settings::RapierSettings;
+}
 pub mod render;
 pub mod rotation;
 
@@ -63,7 +70,9 @@ use self::model::{ACTUATORS, AGENTS, HAND_JOINTS, NUM_TOUCH, PREFIX};
 #[cfg(feature = "mujoco")]
 pub use self::mujoco::{MujocoHand, MujocoHandModel, MujocoSettings, load_mujoco_model};
 pub use self::physics::HandPhysics;
-pub use self::rapier::{RapierHand, RapierHandModel, RapierSettings};
+pub use self::rapier::RapierSettings;
+#[cfg(feature = "rapier")]
+pub use self::rapier::{RapierHand, RapierHandModel};
 pub use self::rotation::GoalDistance;
 use crate::error::EnvError;
 
@@ -190,11 +199,13 @@ impl Default for ShadowHandConfig {
 }
 
 /// Models loaded once per process and then shared, by assets folder and object.
+#[cfg_attr(not(any(feature = "rapier", feature = "mujoco")), allow(dead_code))]
 pub(crate) struct ModelCache<M>(Mutex<Vec<(CacheKey, Arc<M>)>>);
 
 /// Where a model was loaded from.
 type CacheKey = (PathBuf, HandObject);
 
+#[cfg_attr(not(any(feature = "rapier", feature = "mujoco")), allow(dead_code))]
 impl<M> ModelCache<M> {
     /// An empty cache.
     pub(crate) const fn new() -> Self {
@@ -219,9 +230,11 @@ impl<M> ModelCache<M> {
     }
 }
 
+#[cfg(feature = "rapier")]
 static MODELS: ModelCache<RapierHandModel> = ModelCache::new();
 
 /// Loads (once per process, then shared) the rapier model of `object` from `assets`.
+#[cfg(feature = "rapier")]
 pub fn load_rapier_model(assets: &HandAssets, object: HandObject) -> Result<Arc<RapierHandModel>, EnvError> {
     MODELS.get_or_load(assets, object, || RapierHandModel::load(assets, object))
 }
@@ -243,6 +256,7 @@ impl ShadowHandConfig {
     /// assert_eq!(obs.global.len(), 153);
     /// assert_eq!(env.spec().agents.len(), 6);
     /// ```
+    #[cfg(feature = "rapier")]
     pub fn init(self) -> Result<ShadowHand<RapierHand>, EnvError> {
         let physics = self.rapier_physics()?;
         self.init_with(physics)
@@ -253,6 +267,7 @@ impl ShadowHandConfig {
     ///
     /// # Errors
     /// An invalid config, a model that cannot be fetched or loaded.
+    #[cfg(feature = "rapier")]
     pub fn rapier_physics(&self) -> Result<RapierHand, EnvError> {
         self.check()?;
         let assets = fetch_hand_assets(self.assets_dir.as_deref())?;
@@ -363,9 +378,11 @@ fn normal(rng: &mut ChaCha8Rng) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (2.0 * PI * u2).cos()
 }
 
-/// The Shadow Hand rotation task; see the [module docs](self).
+/// The Shadow Hand rotation task; see the [module docs](self). `P` is its
+/// physics: by default the engine chosen at run time
+/// ([`ShadowHandConfig::init_engine`]), or one backend's own type.
 #[derive(Debug)]
-pub struct ShadowHand<P: HandPhysics = RapierHand> {
+pub struct ShadowHand<P: HandPhysics = EnginePhysics> {
     config: ShadowHandConfig,
     spec: EnvSpec,
     physics: P,
@@ -680,7 +697,7 @@ pub fn reset_batch<P: HandPhysics + Send>(
 #[allow(dead_code)]
 fn _assert_send() {
     fn send<T: Send>() {}
-    send::<ShadowHand<RapierHand>>();
+    send::<ShadowHand<EnginePhysics>>();
 }
 
 #[cfg(test)]

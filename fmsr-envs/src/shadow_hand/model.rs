@@ -75,14 +75,16 @@ pub const NUM_TOUCH: usize = 92;
 /// id of its site, and the site (the sensor's zone).
 #[derive(Debug, Clone)]
 pub(crate) struct TouchSensorSite {
+    /// Read by the rapier backend's touch sensors.
+    #[cfg_attr(not(feature = "rapier"), allow(dead_code))]
     pub(crate) name: String,
     pub(crate) body: usize,
-    pub(crate) site: rapier3d_mjcf::mjcf_rs::body::Site,
+    pub(crate) site: mjcf_rs::body::Site,
 }
 
 /// The 92 `robot0:TS_*` touch sensors in the model's order (shared.xml's 5
 /// fingertip `ST_Tch_*` are not among them), with their sites.
-pub(crate) fn touch_sensor_sites(model: &rapier3d_mjcf::mjcf_rs::Model) -> Result<Vec<TouchSensorSite>, EnvError> {
+pub(crate) fn touch_sensor_sites(model: &mjcf_rs::Model) -> Result<Vec<TouchSensorSite>, EnvError> {
     let prefix = format!("{PREFIX}TS_");
     let mut out = Vec::with_capacity(NUM_TOUCH);
     for sensor in model.sensors.iter().filter(|s| s.kind == "touch") {

@@ -10,8 +10,8 @@
 //! the body frame), in their declared order. A body with a free joint is placed
 //! directly at the pose its free joint holds.
 
-use rapier3d_mjcf::mjcf_rs::Model;
-use rapier3d_mjcf::mjcf_rs::body::JointType;
+use mjcf_rs::Model;
+use mjcf_rs::body::JointType;
 
 use crate::error::EnvError;
 
@@ -83,7 +83,7 @@ pub(crate) fn norm(v: [f64; 3]) -> f64 {
 }
 
 /// The transform of an `mjcf_rs` pose.
-pub(crate) fn iso_of(pose: &rapier3d_mjcf::mjcf_rs::Pose) -> Iso {
+pub(crate) fn iso_of(pose: &mjcf_rs::Pose) -> Iso {
     let (t, q) = (pose.translation, pose.rotation);
     Iso::from_pose([t.x, t.y, t.z], [q.w, q.x, q.y, q.z])
 }

@@ -24,8 +24,8 @@ mod raster;
 
 use std::path::Path;
 
-use rapier3d_mjcf::mjcf_rs::Model;
-use rapier3d_mjcf::mjcf_rs::body::{Geom, GeomType};
+use mjcf_rs::Model;
+use mjcf_rs::body::{Geom, GeomType};
 use serde::{Deserialize, Serialize};
 
 pub use self::kinematics::{BodyTree, Iso};
