@@ -175,9 +175,9 @@ impl ShadowHandConfig {
     /// a program turns an engine's name into physics.
     ///
     /// # Errors
-    /// [`EnvError::EngineUnavailable`] for MuJoCo in a build without the
-    /// feature `mujoco`; otherwise the errors of [`ShadowHandConfig::init`]
-    /// or `init_mujoco`.
+    /// [`EnvError::EngineUnavailable`] for an engine whose feature (`rapier`,
+    /// `mujoco`) this build lacks; otherwise the errors of building that
+    /// engine's physics (`rapier_physics`, `init_mujoco`).
     pub fn init_engine(self, engine: Engine) -> Result<ShadowHand<EnginePhysics>, EnvError> {
         let physics = match engine {
             #[cfg(feature = "rapier")]
@@ -198,11 +198,9 @@ mod tests {
     use super::*;
 
     /// Guards the engines' features: an engine left out of the build is refused
-    /// by name, before any model is fetched, and one compiled in is available.
+    /// by name, before any model is fetched (CI runs it without either engine).
     #[test]
     fn an_engine_left_out_is_refused_by_its_feature() {
-        assert_eq!(Engine::Rapier.available(), cfg!(feature = "rapier"));
-        assert_eq!(Engine::Mujoco.available(), cfg!(feature = "mujoco"));
         for engine in Engine::ALL.into_iter().filter(|e| !e.available()) {
             match ShadowHandConfig::default().init_engine(engine) {
                 Err(EnvError::EngineUnavailable { engine: name, feature }) => {
