@@ -111,20 +111,21 @@ def load(records):
 def interim(records):
     """A campaign still training: every snapshot both arms have on the test set and validation, oldest first,
     each as {"epoch", arm: {"test", "val", "within", "drops"}}, with the epochs on record; None without one."""
-    arms, epochs = {}, []
+    arms, epochs, planned = {}, [], []
     for label, run in RUNS.items():
         d = records / run
         if not (d / "metrics.csv").exists():
             return None
         with open(d / "metrics.csv") as f:
             epochs.append(sum(1 for _ in csv.DictReader(f)))
+        planned.append(int(long_runs_record.keeper_env(d / "keeper.env").get("EPOCHS", "400")))
+        within = long_runs_final.training_threshold(d / "config.toml")
         snaps = {}
         for p in sorted((d / "snapshots").glob("epoch-*.test.json")):
             k = int(p.name.split(".")[0].split("-")[1])
             test, val = read_json(p), read_json(d / "snapshots" / f"epoch-{k:03d}.validation.json")
             if test is None or val is None:
                 continue
-            within = long_runs_final.training_threshold(d / "config.toml")
             snaps[k] = {"test": test["outcomes"], "val": val["outcomes"], "drops": test["outcomes"]["drop"],
                         "within": sum(1 for r in test["records"] if r["final_error"] < within and not r["dropped"]),
                         "contacts": test["stability"]["total_contacts"]}
@@ -132,7 +133,7 @@ def interim(records):
     common = sorted(set.intersection(*(set(s) for s in arms.values())))
     if not common:
         return None
-    return {"epochs": min(epochs), "planned": 400,
+    return {"epochs": min(epochs), "planned": max(planned),
             "snapshots": [{"epoch": k, **{label: arms[label][k] for label in ARMS}} for k in common]}
 
 
