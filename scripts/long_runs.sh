@@ -116,7 +116,11 @@
 # epochs left to train, and only when pretrained/ has none of this run yet or
 # the one there is about a day of training old, the `seconds` of the
 # metrics.csv epochs after its EPOCH adding up to FMSR_LONG_RUNS_RESCUE_EVERY
-# (default 86400) or more (scripts/long_runs_rescue.py). Otherwise `record`
+# (default 86400) or more, or about a day old by the clock, its WRITTEN
+# FMSR_LONG_RUNS_RESCUE_AGE seconds ago or more (default 72000) with
+# FMSR_LONG_RUNS_RESCUE_FLOOR seconds of training after it (default 3600):
+# the home has been lost about once a day, after less than a day of training
+# (scripts/long_runs_rescue.py, its header). Otherwise `record`
 # leaves it and says so in a line. best_so_far.fmsr follows it: copied when
 # the rescue point is rewritten, or when there is none yet. A home lost
 # costs the training since its runs' rescue points: at most about a day and a
@@ -160,6 +164,9 @@ trials=${FMSR_LONG_RUNS_TRIALS:-500}
 keep=${FMSR_LONG_RUNS_KEEP:-half}
 # Seconds of training after which `record` rewrites a run's rescue point.
 rescue_every=${FMSR_LONG_RUNS_RESCUE_EVERY:-86400}
+# ... or after this many seconds by the clock, when the run trained FLOOR seconds since it.
+rescue_age=${FMSR_LONG_RUNS_RESCUE_AGE:-72000}
+rescue_floor=${FMSR_LONG_RUNS_RESCUE_FLOOR:-3600}
 # Epochs (from 0) after which the policy is exported.
 snapshot_epochs=(0 9 24 49 99 149 199 249 299 349 399)
 # Seconds of training one session gives a run (a session lasts 180 minutes).
@@ -557,7 +564,8 @@ evaluate_snapshots() {
 # Each run's rescue point (from its last checkpoint) and its best policy on
 # the validation episodes so far, into pretrained/, when due: while the run has
 # epochs left to train, when pretrained/ has none of this run yet or a day of
-# training has passed since it (scripts/long_runs_rescue.py, the header).
+# training, or a day by the clock with an hour of training, has passed since
+# it (scripts/long_runs_rescue.py, the header).
 rescue_and_best() {
   local dir name out epoch best pre snap rescue verdict fresh had args
   for dir in $(runs); do
@@ -571,6 +579,7 @@ rescue_and_best() {
     fresh=0
     if [ "$epoch" -gt 0 ]; then
       args=(due --metrics "$dir/run/metrics.csv" --rescue "$rescue" --every "$rescue_every"
+            --age "$rescue_age" --floor "$rescue_floor"
             --started "$(sed -n 's/^STARTED=//p' "$dir/keeper.env")")
       [ "$epoch" -lt "$(planned "$dir")" ] || args+=(--finished)
       verdict=$(python3 "$repo/scripts/long_runs_rescue.py" "${args[@]}")

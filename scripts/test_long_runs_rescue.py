@@ -1,11 +1,14 @@
 #!/usr/bin/env python3
-"""Regression test: `scripts/long_runs.sh record` rewrites a rescue point about once a day of training.
+"""Regression test: `scripts/long_runs.sh record` rewrites a rescue point about once a day of training, or once a
+day by the clock when the run has trained an hour or more since it.
 
 Every rescue point the keeper writes into pretrained/ stays in git's history,
 so `record` (re)writes a run's only while the run has epochs left to train,
 and only when pretrained/ has none of this run yet or the one there is a day
 of training old (the `seconds` of the metrics.csv epochs after its EPOCH add
-up to 86400 or more); best_so_far.fmsr follows it. This checks the decision
+up to 86400 or more, or it was written 20 h or more ago and an hour of
+training follows it: the home has been lost about once a day, long before a
+day of training); best_so_far.fmsr follows it. This checks the decision
 (scripts/long_runs_rescue.py) on a table of made-up runs whose answer is
 known, its command line on rescue points on disk (none, this run's, an earlier
 run's of the same name), and the keeper's own `rescue_and_best` on a scratch
@@ -19,6 +22,7 @@ import os
 import subprocess
 import sys
 import tempfile
+from datetime import timedelta
 from pathlib import Path
 
 root = Path(__file__).resolve().parent.parent
@@ -67,6 +71,31 @@ if abs(lr.seconds_since(hourly, 75) - 25 * HOUR) > 1e-6:
 if lr.due(hourly, 98, 2 * HOUR)[0] is not True or lr.due(hourly, 99, 2 * HOUR)[0] is not False:
     fail("with a threshold of 2 h, a rescue point 2 h old is rewritten and one 1 h old is kept")
 
+# The clock's day: a rescue point written 20 h or more ago is rewritten once the run trained an hour after it.
+written = lr.parse_time("2026-12-03T10:35:01Z")
+CLOCK = [
+    # (what, rows, rescue EPOCH, hours since written or None, write?)
+    ("written 3 days ago, 2 h of training since", hourly, 98, 72, True),
+    ("written 3 days ago, 1 h of training since: the floor itself", hourly, 99, 72, True),
+    ("written 3 days ago, no training since", hourly, 100, 72, False),
+    ("written 20 h ago, 5 h of training since: the clock's threshold itself", hourly, 95, 20, True),
+    ("written 19 h ago, 5 h of training since", hourly, 95, 19, False),
+    ("written at an unknown time, 5 h of training since", hourly, 95, None, False),
+    ("written an hour ago, 24 h of training since (the training's rule)", hourly, 76, 1, True),
+]
+for what, rs, epoch, ago, want in CLOCK:
+    now = written + timedelta(hours=ago) if ago is not None else written
+    write, why = lr.due(rs, epoch, 86400, False, written if ago is not None else None, now)
+    if write != want:
+        fail(f"{what}: {'write' if want else 'skip'} expected, got {'write' if write else 'skip'} ({why})")
+    if "\n" in why or not why:
+        fail(f"{what}: the reason should be one line: {why!r}")
+if lr.due(hourly, 95, 86400, True, written, written + timedelta(hours=72))[0]:
+    fail("a finished run is not rewritten, however old its rescue point")
+for bad in ("x", "", "2026-12-03", "2026-12-03T10:35:01"):
+    if lr.parse_time(bad) is not None:
+        fail(f"{bad!r} is not a time with its zone: None expected")
+
 
 def cli(metrics, rescue, *extra):
     out = subprocess.run([sys.executable, str(root / "scripts/long_runs_rescue.py"), "due", "--metrics", str(metrics),
@@ -96,6 +125,16 @@ with tempfile.TemporaryDirectory() as tmp:
         fail("20 h since the rescue point with a threshold of 20 h: write")
     if cli(metrics, rescue, "--every", str(20 * HOUR), "--finished") != "skip":
         fail("a run that has trained all its epochs: skip")
+    # Written at a known time: 20 h by the clock and the hour of training after it rewrite it; 19 h do not.
+    (rescue / "rescue.env").write_text("EPOCH=10\nKEEP=half\nWRITTEN=2026-12-03T10:35:01Z\nSTARTED=2026-01-01T00:00:00Z\n")
+    if cli(metrics, rescue, "--now", "2026-12-04T06:35:01Z") != "write":
+        fail("a rescue point written 20 h ago with 20 h of training since: write")
+    if cli(metrics, rescue, "--now", "2026-12-04T05:35:01Z") != "skip":
+        fail("a rescue point written 19 h ago with 20 h of training since (under a day): skip")
+    bad = subprocess.run([sys.executable, str(root / "scripts/long_runs_rescue.py"), "due", "--metrics", str(metrics),
+                          "--rescue", str(rescue), "--now", "yesterday"], capture_output=True, text=True)
+    if bad.returncode == 0 or "--now" not in bad.stderr:
+        fail(f"--now that is not a time: an error naming --now expected, got {bad.returncode} {bad.stderr!r}")
     # A rescue.env written before it named its run's STARTED is taken as this run's.
     (rescue / "rescue.env").write_text("EPOCH=10\nKEEP=online\nWRITTEN=x\n")
     if cli(metrics, rescue, "--started", "2026-02-02T00:00:00Z") != "skip":
@@ -197,4 +236,4 @@ with tempfile.TemporaryDirectory() as tmp:
     if env.get("EPOCH") != "61" or env.get("KEEP") != "online":
         fail(f"FMSR_LONG_RUNS_SUFFIX=_paper should write pretrained/egg_dense_paper/rescue, online: {env}: {out}")
 
-print("ok: record rewrites a rescue point while the run trains, when it has none or it is a day of training old")
+print("ok: record rewrites a rescue point while the run trains, when it has none, it is a day of training old, or a day old with an hour of training since")
