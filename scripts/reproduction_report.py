@@ -108,33 +108,76 @@ def load(records):
     return arms
 
 
+def snapshots_of(d, within):
+    """The snapshots of one arm's run directory `d` with both a test and a validation record, by epoch (from 0):
+    {"test", "val", "within" (test episodes ending within `within` rad, not dropped), "drops", "contacts"}."""
+    snaps = {}
+    for p in sorted((d / "snapshots").glob("epoch-*.test.json")):
+        k = int(p.name.split(".")[0].split("-")[1])
+        test, val = read_json(p), read_json(d / "snapshots" / f"epoch-{k:03d}.validation.json")
+        if test is None or val is None:
+            continue
+        snaps[k] = {"test": test["outcomes"], "val": val["outcomes"], "drops": test["outcomes"]["drop"],
+                    "within": sum(1 for r in test["records"] if r["final_error"] < within and not r["dropped"]),
+                    "contacts": test["stability"]["total_contacts"]}
+    return snaps
+
+
+def epochs_in(d):
+    """The epochs a run directory's metrics.csv holds (0 without one)."""
+    if not (d / "metrics.csv").exists():
+        return 0
+    with open(d / "metrics.csv") as f:
+        return sum(1 for _ in csv.DictReader(f))
+
+
+def attempt(dirs, within):
+    """One attempt of a campaign, its arms' directories `dirs` (by label): the epochs both hold and the
+    snapshots both have, oldest first, each as {"epoch", arm: snapshots_of's entry}."""
+    arms = {label: snapshots_of(d, within[label]) for label, d in dirs.items()}
+    common = sorted(set.intersection(*(set(s) for s in arms.values())))
+    return {"epochs": min(epochs_in(d) for d in dirs.values()),
+            "snapshots": [{"epoch": k, **{label: arms[label][k] for label in ARMS}} for k in common]}
+
+
 def interim(records):
-    """A campaign still training: every snapshot both arms have on the test set and validation, oldest first,
-    each as {"epoch", arm: {"test", "val", "within", "drops"}}, with the epochs on record; None without one."""
-    arms, epochs, planned = {}, [], []
+    """A campaign still training: the snapshots both arms have on the test set and validation (attempt()), with
+    the epochs on record and planned, and under "attempts" those of its earlier attempts, each lost with its
+    home (the records `long_runs.sh resume` set aside in lost-<time>/ before the runs went on from their rescue
+    points), oldest first, each with "lost" (the date) and "epochs" (where it was lost); None when neither the
+    run nor an earlier attempt has a snapshot."""
+    dirs, planned, within, lost = {}, [], {}, {}
     for label, run in RUNS.items():
         d = records / run
         if not (d / "metrics.csv").exists():
             return None
-        with open(d / "metrics.csv") as f:
-            epochs.append(sum(1 for _ in csv.DictReader(f)))
+        dirs[label] = d
         planned.append(int(long_runs_record.keeper_env(d / "keeper.env").get("EPOCHS", "400")))
-        within = long_runs_final.training_threshold(d / "config.toml")
-        snaps = {}
-        for p in sorted((d / "snapshots").glob("epoch-*.test.json")):
-            k = int(p.name.split(".")[0].split("-")[1])
-            test, val = read_json(p), read_json(d / "snapshots" / f"epoch-{k:03d}.validation.json")
-            if test is None or val is None:
-                continue
-            snaps[k] = {"test": test["outcomes"], "val": val["outcomes"], "drops": test["outcomes"]["drop"],
-                        "within": sum(1 for r in test["records"] if r["final_error"] < within and not r["dropped"]),
-                        "contacts": test["stability"]["total_contacts"]}
-        arms[label] = snaps
-    common = sorted(set.intersection(*(set(s) for s in arms.values())))
-    if not common:
+        within[label] = long_runs_final.training_threshold(d / "config.toml")
+        lost[label] = sorted(d.glob("lost-*/"))
+    current = attempt(dirs, within)
+    attempts = []
+    # Both arms lose the same home: their set-aside records pair in order.
+    if len({len(v) for v in lost.values()}) == 1:
+        for i in range(len(lost[ARMS[0]])):
+            a = attempt({label: lost[label][i] for label in ARMS}, within)
+            stamp = lost[ARMS[0]][i].name.removeprefix("lost-")
+            a["lost"] = f"{stamp[:4]}-{stamp[4:6]}-{stamp[6:8]}"
+            if a["snapshots"]:
+                attempts.append(a)
+    if not current["snapshots"] and not attempts:
         return None
-    return {"epochs": min(epochs), "planned": max(planned),
-            "snapshots": [{"epoch": k, **{label: arms[label][k] for label in ARMS}} for k in common]}
+    return {**current, "planned": max(planned), "attempts": attempts}
+
+
+def latest(progress):
+    """The snapshot furthest in training of a campaign in progress, this attempt's or an earlier one's (this
+    attempt's on a tie), with None or the earlier attempt it is of."""
+    best = (progress["snapshots"][-1], None) if progress["snapshots"] else None
+    for a in progress["attempts"]:
+        if best is None or a["snapshots"][-1]["epoch"] > best[0]["epoch"]:
+            best = (a["snapshots"][-1], a)
+    return best
 
 
 def interim_claims(snap):
@@ -150,28 +193,47 @@ def interim_claims(snap):
     return rows
 
 
+def snapshot_row(s, lead):
+    """One snapshot's row of interim_section's tables, after the cells `lead`."""
+    a, b = s["Dense+FMSR+IS"], s["Dense"]
+    (_, test, word), (_, within, _) = interim_claims(s)
+    n = a["test"]["episodes"]
+    return (f"| {lead}{s['epoch']} | {pct(a['test']['successes'], n)} | "
+            f"{pct(b['test']['successes'], b['test']['episodes'])} "
+            f"| {test} | {word} | {100 * a['within'] / n:.0f} % against "
+            f"{100 * b['within'] / b['test']['episodes']:.0f} % | {within} | "
+            f"{100 * a['val']['successes'] / a['val']['episodes']:.0f} % against "
+            f"{100 * b['val']['successes'] / b['val']['episodes']:.0f} % | {a['drops']} against {b['drops']} |")
+
+
+SNAPSHOT_COLUMNS = ("Dense+FMSR+IS test, 0.4 rad | Dense test, 0.4 rad | Difference | Verdict | Within 0.1 rad, not "
+                    "dropped | Difference | Validation | Drops (test) |")
+
+
 def interim_section(name, what, progress):
-    """The section of a campaign still training: its snapshots on the test set, each arm and the difference."""
+    """The section of a campaign still training: its snapshots on the test set, each arm and the difference, this
+    attempt's and those of the attempts lost with their homes."""
     lines = [f"### {what[0].upper()}{what[1:]}\n",
              f"In progress: {progress['epochs']} of {progress['planned']} epochs on record, one seed an arm "
              f"(records: [`docs/results/{name}/`](results/{name}/), which says where the runs stand). What follows "
              "are snapshots, the policy at that epoch on the fixed test set (100 episodes at 0.4 rad, turned and "
              "held, by the campaign's own distance) and 100 validation episodes; the final comparison is the "
              "policy after the last epoch and waits for it. A verdict at a snapshot holds for that snapshot of "
-             "this seed pair.\n",
-             "| Snapshot (epoch, from 0) | Dense+FMSR+IS test, 0.4 rad | Dense test, 0.4 rad | Difference | Verdict "
-             "| Within 0.1 rad, not dropped | Difference | Validation | Drops (test) |",
-             "|---|---|---|---|---|---|---|---|---|"]
-    for s in progress["snapshots"]:
-        a, b = s["Dense+FMSR+IS"], s["Dense"]
-        (_, test, word), (_, within, _) = interim_claims(s)
-        n = a["test"]["episodes"]
-        lines.append(
-            f"| {s['epoch']} | {pct(a['test']['successes'], n)} | {pct(b['test']['successes'], b['test']['episodes'])} "
-            f"| {test} | {word} | {100 * a['within'] / n:.0f} % against {100 * b['within'] / b['test']['episodes']:.0f} % "
-            f"| {within} | "
-            f"{100 * a['val']['successes'] / a['val']['episodes']:.0f} % against "
-            f"{100 * b['val']['successes'] / b['val']['episodes']:.0f} % | {a['drops']} against {b['drops']} |")
+             "this seed pair.\n"]
+    if progress["snapshots"]:
+        lines += [f"| Snapshot (epoch, from 0) | {SNAPSHOT_COLUMNS}", "|---|---|---|---|---|---|---|---|---|"]
+        lines += [snapshot_row(s, "") for s in progress["snapshots"]]
+    else:
+        lines.append("This attempt has no snapshot yet.")
+    if progress["attempts"]:
+        lines += ["\nEarlier attempts, each lost with its home after the epochs given (its records are in the runs' "
+                  "`lost-<time>/`), after which the runs went on from their rescue points in the repository: the same "
+                  "seed, but training past a rescue point has not repeated from one attempt to the next, so their "
+                  "spread at one epoch shows how far one seed pair's snapshot can move.\n",
+                  f"| Attempt | Snapshot (epoch, from 0) | {SNAPSHOT_COLUMNS}",
+                  "|---|---|---|---|---|---|---|---|---|---|"]
+        lines += [snapshot_row(s, f"lost {a['lost']} after {a['epochs']} epochs | ")
+                  for a in progress["attempts"] for s in a["snapshots"]]
     lines.append("\nPercentages of two arms read Dense+FMSR+IS against Dense; the within-0.1 rad share is the "
                  "training claim's measure at the paper's budget, as above.\n")
     return "\n".join(lines) + "\n"
@@ -422,9 +484,10 @@ def summary(paper_rows, lite_headline):
     for what, rows, progress in paper_rows:
         # claims() and interim_claims() put the two headline claims first, in HEADLINE's order.
         if rows is None and progress is not None:
-            last = progress["snapshots"][-1]
+            last, lost = latest(progress)
             rows = interim_claims(last)
-            what += f" (in progress: the snapshot of epoch {last['epoch']} of {progress['planned']})"
+            what += f" (in progress: the snapshot of epoch {last['epoch']} of {progress['planned']}"
+            what += ")" if lost is None else f", of an attempt lost with its home after {lost['epochs']} epochs)"
         for i, label in enumerate(HEADLINE.values()):
             cells = "not yet on record |" if rows is None else f"{rows[i][1]} | {rows[i][2]}"
             lines.append(f"| Paper's budget, {what} | 1 | {label} | {cells} |")

@@ -2,7 +2,9 @@
 """The committed reproduction report is what the committed records give:
 scripts/reproduction_report.py run again into a scratch directory writes
 docs/report.md and every figure it links byte for byte; and its verdicts
-follow the rule it states (checked on made-up intervals)."""
+follow the rule it states (checked on made-up intervals); a campaign in progress
+keeps the snapshots of attempts lost with their homes (checked on made-up
+records)."""
 import subprocess
 import sys
 import tempfile
@@ -27,6 +29,50 @@ arm = lambda k, within: {"test": {"successes": k, "episodes": 100}, "within": wi
 (_, test, word), (_, close, close_word) = rr.interim_claims({"Dense+FMSR+IS": arm(59, 2), "Dense": arm(82, 4)})
 assert (test, word) == ("-23 pts [-35, -10]", "contradicted"), (test, word)
 assert (close, close_word) == ("-2 pts [-8, +4]", "cannot tell"), (close, close_word)
+
+# A campaign whose home was lost: the attempt set aside in lost-<time>/ keeps its snapshots in the report, and the
+# opening table reads the snapshot furthest in training, the lost attempt's until this one passes it.
+import json  # noqa: E402
+
+
+def run_dir(d, epochs, snaps):
+    """A made-up arm's run directory: `epochs` rows of metrics.csv, snapshots {epoch: successes of 100}."""
+    (d / "snapshots").mkdir(parents=True)
+    (d / "metrics.csv").write_text("epoch,seconds\n" + "".join(f"{i},1\n" for i in range(epochs)))
+    for k, won in snaps.items():
+        test = {"outcomes": {"successes": won, "episodes": 100, "drop": 0}, "stability": {"total_contacts": 0},
+                "records": [{"final_error": 0.05 if i < won else 1.0, "dropped": False} for i in range(100)]}
+        (d / "snapshots" / f"epoch-{k:03d}.test.json").write_text(json.dumps(test))
+        (d / "snapshots" / f"epoch-{k:03d}.validation.json").write_text(json.dumps({"outcomes": test["outcomes"]}))
+
+
+with tempfile.TemporaryDirectory() as tmp:
+    records = Path(tmp)
+    for label, run in rr.RUNS.items():
+        d = records / run
+        dense = label == "Dense"
+        run_dir(d, 30, {9: 20 if dense else 10, 24: 60 if dense else 40})
+        (d / "config.toml").write_text("[env]\nsuccess_threshold = 0.1\n")
+        (d / "keeper.env").write_text("EPOCHS=400\n")
+        # The two arms' homes went at slightly different times the same day; they pair in order.
+        run_dir(d / ("lost-20261206T060139Z" if dense else "lost-20261206T061024Z"), 79 if dense else 78,
+                {9: 20, 24: 70, 49: 99 if dense else 82})
+    progress = rr.interim(records)
+    assert progress["epochs"] == 30 and [s["epoch"] for s in progress["snapshots"]] == [9, 24], progress
+    (lost,) = progress["attempts"]
+    assert (lost["lost"], lost["epochs"], [s["epoch"] for s in lost["snapshots"]]) == ("2026-12-06", 78, [9, 24, 49])
+    last, of = rr.latest(progress)
+    assert last["epoch"] == 49 and of is lost, (last["epoch"], of)
+    assert rr.interim_claims(last)[0][1:] == ("-17 pts [-26, -9]", "contradicted"), rr.interim_claims(last)
+    section = rr.interim_section("paper_stack", "the paper's stack", progress)
+    assert "| lost 2026-12-06 after 78 epochs | 49 | 82 % [73, 88] | 99 % [95, 100] |" in section, section
+    # Once this attempt reaches the lost one's furthest snapshot, the opening table reads this attempt's.
+    for label, run in rr.RUNS.items():
+        run_dir(records / run / "extra", 0, {49: 90})
+        for f in (records / run / "extra" / "snapshots").iterdir():
+            f.rename(records / run / "snapshots" / f.name)
+    last, of = rr.latest(rr.interim(records))
+    assert last["epoch"] == 49 and of is None and last["Dense"]["test"]["successes"] == 90
 
 with tempfile.TemporaryDirectory() as tmp:
     subprocess.run([sys.executable, str(REPO / "scripts/reproduction_report.py"), "--out", tmp], check=True,
