@@ -5,7 +5,8 @@
 # a driver must wait for a lock held an instant (and train a third epoch),
 # `lost` must mark them only once their home is gone, `record` must write
 # rescue points only for runs with epochs left and keep them until a day of
-# training has passed, `resume` must restore the runs from them when the home is gone,
+# training (or a day by the clock and an hour of it) has passed, `resume` must
+# restore the runs from them when the home is gone,
 # `finish` must refuse while a run is unfinished, `finish RUN` must end one
 # run ahead of the other, and the bare `finish` then write every final
 # evaluation (each on the engine its name says), policy, README, report and the
