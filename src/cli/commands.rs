@@ -32,10 +32,7 @@ impl<T, E: std::error::Error + Send + Sync + 'static> Context<T> for Result<T, E
 
 /// The run's Shadow Hand on `engine` (which `fmsr eval` and `render` may
 /// choose apart from the one it trained on).
-fn hand_on(
-    config: &ExperimentConfig,
-    engine: Engine,
-) -> Result<fmsr_envs::shadow_hand::ShadowHand<fmsr_envs::shadow_hand::EnginePhysics>> {
+fn hand_on(config: &ExperimentConfig, engine: Engine) -> Result<fmsr_envs::shadow_hand::ShadowHand> {
     config.env_config().init_engine(engine).context(|| format!("building the {} Shadow Hand", engine.key()))
 }
 
