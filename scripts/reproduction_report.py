@@ -227,9 +227,10 @@ def interim_section(name, what, progress):
         lines.append("This attempt has no snapshot yet.")
     if progress["attempts"]:
         lines += ["\nEarlier attempts, each lost with its home after the epochs given (its records are in the runs' "
-                  "`lost-<time>/`), after which the runs went on from their rescue points in the repository: the same "
-                  "seed, but training past a rescue point has not repeated from one attempt to the next, so their "
-                  "spread at one epoch shows how far one seed pair's snapshot can move.\n",
+                  "`lost-<time>/`), after which the runs went on from their rescue points in the repository. Their "
+                  "records part after the rescue point (the first attempt kept its replay buffer, which a rescue "
+                  "point does not hold; the later ones ran builds that differ, each named in the run's "
+                  "restarts.jsonl), so their spread at one epoch shows how far one seed pair's snapshot can move.\n",
                   f"| Attempt | Snapshot (epoch, from 0) | {SNAPSHOT_COLUMNS}",
                   "|---|---|---|---|---|---|---|---|---|---|"]
         lines += [snapshot_row(s, f"lost {a['lost']} after {a['epochs']} epochs | ")
