@@ -229,8 +229,9 @@ def interim_section(name, what, progress):
         lines += ["\nEarlier attempts, each lost with its home after the epochs given (its records are in the runs' "
                   "`lost-<time>/`), after which the runs went on from their rescue points in the repository. Their "
                   "records part after the rescue point (the first attempt kept its replay buffer, which a rescue "
-                  "point does not hold; the later ones ran builds that differ, each named in the run's "
-                  "restarts.jsonl), so their spread at one epoch shows how far one seed pair's snapshot can move.\n",
+                  "point does not hold; a restart repeats bit for bit only on a CPU of the same instruction sets, "
+                  "as a seeded run does), so their spread at one epoch shows how far one seed pair's snapshot can "
+                  "move.\n",
                   f"| Attempt | Snapshot (epoch, from 0) | {SNAPSHOT_COLUMNS}",
                   "|---|---|---|---|---|---|---|---|---|---|"]
         lines += [snapshot_row(s, f"lost {a['lost']} after {a['epochs']} epochs | ")
