@@ -103,7 +103,9 @@ def table(runs, window=WINDOW, span=SPAN):
     for r in runs:
         epochs = [x.get("restart", {}).get("epoch") for x in r.get("restarts", [])]
         epochs = [e for e in epochs if isinstance(e, int)]
-        for e in epochs:
+        # Restarts at one epoch (a home lost again before the next rescue point) read the same records: one row.
+        for e in sorted(set(epochs)):
+            times = epochs.count(e)
             cells = []
             for column, n in zip(("success_rate", "train_success_rate"), r.get("per_epoch") or (None, None)):
                 cost = None if n is None else restart_cost(successes(r["metrics"], column, n), n, e, epochs,
@@ -116,7 +118,8 @@ def table(runs, window=WINDOW, span=SPAN):
                 ref = "none" if s is None else (f"{d:+.1f} against {100 * s[0]:+.1f} to {100 * s[1]:+.1f} pts ({s[2]}): "
                                                f"{verdict(cost)}")
                 cells.append(f"{pct(cost['before'])} | {pct(cost['after'])} | {pts(cost['difference'])} | {ref}")
-            rows.append(f"| {r['label']} | {e} | " + " | ".join(cells) + " |")
+            at = f"{e} ({times} times)" if times > 1 else f"{e}"
+            rows.append(f"| {r['label']} | {at} | " + " | ".join(cells) + " |")
     if not rows:
         return []
     return ["", f"What each restart from a rescue point cost, read off the run itself (no twin goes on uninterrupted): "

@@ -82,6 +82,11 @@ if cells[1] != "60" or "-20 pts" not in cells[4] or "below the spread" not in ce
     fail(f"the restart at 60 should fall 20 points in eval (below the spread) and not in training: {cells}")
 if "n/a" not in rows[1]:
     fail(f"the restart at 115 has 5 epochs after it and should read n/a: {rows[1]}")
+# Restarts at one epoch (the home lost again before a newer rescue point) read the same records: one row, counted.
+again = lr.table([{**run, "restarts": run["restarts"] + [{"restart": {"epoch": 60}}, {"restart": {"epoch": 60}}]}])
+again_rows = [line for line in again if line.startswith("| Dense |")]
+if len(again_rows) != 2 or "| 60 (3 times) |" not in again_rows[0] or again_rows[0].split("|")[3:] != rows[0].split("|")[3:]:
+    fail(f"three restarts at epoch 60 should read as one row counting them, with the same numbers: {again_rows}")
 if lr.table([{**run, "restarts": []}]) != []:
     fail("runs that never restarted should give no table")
 print("ok: the restart table sets the 10 epochs after each restart against the 10 before and the spread without one")
