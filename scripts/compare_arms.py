@@ -35,7 +35,7 @@ import tomllib
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from long_runs_final import angle_cell, final_angles, newcombe, training_threshold, wilson  # noqa: E402
+from long_runs_final import angle_cell, final_angles, newcombe, points, training_threshold, wilson  # noqa: E402
 
 
 def load(path):
@@ -61,7 +61,7 @@ def rate(c):
 
 def pts(d):
     """A difference of rates in points with its interval."""
-    return f"{100 * d[0]:+.0f} pts [{100 * d[1]:+.0f}, {100 * d[2]:+.0f}]"
+    return f"{points(d[0])} pts [{points(d[1])}, {points(d[2])}]"
 
 
 def add(a, b):

@@ -235,8 +235,20 @@ def pct(i):
     return "n/a" if i is None else f"{100 * i[0]:.0f} % [{100 * i[1]:.0f}, {100 * i[2]:.0f}]"
 
 
+def points(x):
+    """A signed difference of rates in whole points, unless it rounds to zero without being zero: then
+    with as many decimals as it takes (up to three) to show its sign, so that an interval's end that
+    excludes zero never reads as zero."""
+    v = 100 * x
+    for decimals in range(4):
+        s = f"{v:+.{decimals}f}"
+        if v == 0 or s.strip("+-0.") != "":
+            return s
+    return s
+
+
 def pts(i):
-    return f"{100 * i[0]:+.0f} pts [{100 * i[1]:+.0f}, {100 * i[2]:+.0f}]"
+    return f"{points(i[0])} pts [{points(i[1])}, {points(i[2])}]"
 
 
 def read_json(path):

@@ -185,11 +185,11 @@ def interim_claims(snap):
     a, b = snap["Dense+FMSR+IS"], snap["Dense"]
     iv = newcombe(a["test"]["successes"], a["test"]["episodes"], b["test"]["successes"], b["test"]["episodes"])
     d = a["test"]["successes"] / a["test"]["episodes"] - b["test"]["successes"] / b["test"]["episodes"]
-    rows = [("test", f"{100 * d:+.0f} pts {pts(iv)}", verdict(iv, +1))]
+    rows = [("test", f"{long_runs_final.points(d)} pts {pts(iv)}", verdict(iv, +1))]
     n = a["test"]["episodes"]
     iv = newcombe(a["within"], n, b["within"], b["test"]["episodes"])
     d = a["within"] / n - b["within"] / b["test"]["episodes"]
-    rows.append(("within", f"{100 * d:+.0f} pts {pts(iv)}", verdict(iv, +1)))
+    rows.append(("within", f"{long_runs_final.points(d)} pts {pts(iv)}", verdict(iv, +1)))
     return rows
 
 
@@ -248,7 +248,7 @@ def pct(k, n):
 
 def pts(interval):
     lo, hi = interval
-    return f"[{100 * lo:+.0f}, {100 * hi:+.0f}]"
+    return f"[{long_runs_final.points(lo)}, {long_runs_final.points(hi)}]"
 
 
 def num(v):
@@ -348,7 +348,7 @@ def claims(arms):
     oa, ob = t[a]["outcomes"], t[b]["outcomes"]
     iv = newcombe(oa["successes"], oa["episodes"], ob["successes"], ob["episodes"])
     rows.append(("Dense+FMSR+IS succeeds more often than Dense at 0.4 rad (Table I: 91 % against 35 %)",
-                 f"{100 * (oa['successes'] - ob['successes']) / 100:+.0f} pts {pts(iv)}", verdict(iv, +1)))
+                 f"{long_runs_final.points(oa['successes'] / oa['episodes'] - ob['successes'] / ob['episodes'])} pts {pts(iv)}", verdict(iv, +1)))
     wa, wb = arms[a]["within"], arms[b]["within"]
     iv = newcombe(wa, 100, wb, 100)
     rows.append(("Dense+FMSR+IS learns the task better during training (Fig. 3, at the training threshold; "
@@ -453,7 +453,7 @@ def lite_section():
                 continue
             iv = newcombe(*a[key], *b[key])
             d = a[key][0] / a[key][1] - b[key][0] / b[key][1]
-            verdicts.append((f"{name.upper()}: Dense+FMSR+IS {claim}", f"{100 * d:+.0f} pts {pts(iv)}",
+            verdicts.append((f"{name.upper()}: Dense+FMSR+IS {claim}", f"{long_runs_final.points(d)} pts {pts(iv)}",
                              verdict(iv, +1)))
             if key in HEADLINE:
                 headline.append((f"Lite budget ({name.upper()}), {what}", HEADLINE[key], *verdicts[-1][1:]))
@@ -526,7 +526,7 @@ def attribution_section():
         row = {"test": test, "curve": curve}
         base = base or row
         diff = lambda key: ("—" if row is base else
-                            f"{100 * (row[key][0] / row[key][1] - base[key][0] / base[key][1]):+.0f} pts "
+                            f"{long_runs_final.points(row[key][0] / row[key][1] - base[key][0] / base[key][1])} pts "
                             f"{pts(newcombe(*row[key], *base[key]))}")
         lines.append(
             f"| {label} | {len(runs)} | "

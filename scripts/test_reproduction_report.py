@@ -30,6 +30,12 @@ arm = lambda k, within: {"test": {"successes": k, "episodes": 100}, "within": wi
 assert (test, word) == ("-23 pts [-35, -10]", "contradicted"), (test, word)
 assert (close, close_word) == ("-2 pts [-8, +4]", "cannot tell"), (close, close_word)
 
+# An interval's end that excludes zero never reads as zero: 95 of 100 against 100 of 100 ends at -0.3 pts, which
+# whole points would print "-0" beside the verdict "contradicted".
+(_, test, word), _ = rr.interim_claims({"Dense+FMSR+IS": arm(95, 1), "Dense": arm(100, 39)})
+assert (test, word) == ("-5 pts [-11, -0.3]", "contradicted"), (test, word)
+assert [rr.long_runs_final.points(x) for x in (0, 0.003, -0.00004, -0.11)] == ["+0", "+0.3", "-0.004", "-11"]
+
 # A campaign whose home was lost: the attempt set aside in lost-<time>/ keeps its snapshots in the report, and the
 # opening table reads the snapshot furthest in training, the lost attempt's until this one passes it.
 import json  # noqa: E402
