@@ -35,7 +35,7 @@ import tomllib
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from long_runs_final import angle_cell, final_angles, newcombe, points, training_threshold, wilson  # noqa: E402
+from long_runs_final import angle_cell, final_angles, newcombe, pts, training_threshold, wilson  # noqa: E402
 
 
 def load(path):
@@ -57,11 +57,6 @@ def rate(c):
         return "—"
     p, lo, hi = wilson(c[0], c[1])
     return f"{100 * p:.0f} % [{100 * lo:.0f}, {100 * hi:.0f}] ({c[0]}/{c[1]})"
-
-
-def pts(d):
-    """A difference of rates in points with its interval."""
-    return f"{points(d[0])} pts [{points(d[1])}, {points(d[2])}]"
 
 
 def add(a, b):

@@ -183,13 +183,11 @@ def latest(progress):
 def interim_claims(snap):
     """The two headline claims at one snapshot, as claims() words them."""
     a, b = snap["Dense+FMSR+IS"], snap["Dense"]
-    iv = newcombe(a["test"]["successes"], a["test"]["episodes"], b["test"]["successes"], b["test"]["episodes"])
-    d = a["test"]["successes"] / a["test"]["episodes"] - b["test"]["successes"] / b["test"]["episodes"]
-    rows = [("test", f"{long_runs_final.points(d)} pts {pts(iv)}", verdict(iv, +1))]
-    n = a["test"]["episodes"]
-    iv = newcombe(a["within"], n, b["within"], b["test"]["episodes"])
-    d = a["within"] / n - b["within"] / b["test"]["episodes"]
-    rows.append(("within", f"{long_runs_final.points(d)} pts {pts(iv)}", verdict(iv, +1)))
+    na, nb = a["test"]["episodes"], b["test"]["episodes"]
+    cell, iv = difference(a["test"]["successes"], na, b["test"]["successes"], nb)
+    rows = [("test", cell, verdict(iv, +1))]
+    cell, iv = difference(a["within"], na, b["within"], nb)
+    rows.append(("within", cell, verdict(iv, +1)))
     return rows
 
 
@@ -249,6 +247,12 @@ def pct(k, n):
 def pts(interval):
     lo, hi = interval
     return f"[{long_runs_final.points(lo)}, {long_runs_final.points(hi)}]"
+
+
+def difference(k1, n1, k2, n2):
+    """The rate k1/n1 minus k2/n2 in points with Newcombe's interval, and that interval (for the verdict)."""
+    iv = newcombe(k1, n1, k2, n2)
+    return f"{long_runs_final.points(k1 / n1 - k2 / n2)} pts {pts(iv)}", iv
 
 
 def num(v):
@@ -346,14 +350,13 @@ def claims(arms):
     a, b = "Dense+FMSR+IS", "Dense"
     rows = []
     oa, ob = t[a]["outcomes"], t[b]["outcomes"]
-    iv = newcombe(oa["successes"], oa["episodes"], ob["successes"], ob["episodes"])
+    cell, iv = difference(oa["successes"], oa["episodes"], ob["successes"], ob["episodes"])
     rows.append(("Dense+FMSR+IS succeeds more often than Dense at 0.4 rad (Table I: 91 % against 35 %)",
-                 f"{long_runs_final.points(oa['successes'] / oa['episodes'] - ob['successes'] / ob['episodes'])} pts {pts(iv)}", verdict(iv, +1)))
-    wa, wb = arms[a]["within"], arms[b]["within"]
-    iv = newcombe(wa, 100, wb, 100)
+                 cell, verdict(iv, +1)))
+    cell, iv = difference(arms[a]["within"], oa["episodes"], arms[b]["within"], ob["episodes"])
     rows.append(("Dense+FMSR+IS learns the task better during training (Fig. 3, at the training threshold; "
                  "measured as test episodes ending within 0.1 rad, not dropped)",
-                 f"{wa - wb:+d} pts {pts(iv)}", verdict(iv, +1)))
+                 cell, verdict(iv, +1)))
     for key, name, direction, scale in (("total_contacts", "more contacts (Table I)", +1, 1.0),
                                         ("q_msv", "a higher Q_MSV (Table I)", +1, 1.0),
                                         ("q_vew", "a higher Q_VEW (Table I)", +1, 1.0),
@@ -451,10 +454,8 @@ def lite_section():
                            ("val", "succeeds more often on the validation episodes")):
             if a[key] is None or b[key] is None:
                 continue
-            iv = newcombe(*a[key], *b[key])
-            d = a[key][0] / a[key][1] - b[key][0] / b[key][1]
-            verdicts.append((f"{name.upper()}: Dense+FMSR+IS {claim}", f"{long_runs_final.points(d)} pts {pts(iv)}",
-                             verdict(iv, +1)))
+            cell, iv = difference(*a[key], *b[key])
+            verdicts.append((f"{name.upper()}: Dense+FMSR+IS {claim}", cell, verdict(iv, +1)))
             if key in HEADLINE:
                 headline.append((f"Lite budget ({name.upper()}), {what}", HEADLINE[key], *verdicts[-1][1:]))
         d, (lo, hi) = welch(a["contacts"], b["contacts"])
@@ -525,9 +526,7 @@ def attribution_section():
         curve, last = last_ten(runs)
         row = {"test": test, "curve": curve}
         base = base or row
-        diff = lambda key: ("—" if row is base else
-                            f"{long_runs_final.points(row[key][0] / row[key][1] - base[key][0] / base[key][1])} pts "
-                            f"{pts(newcombe(*row[key], *base[key]))}")
+        diff = lambda key: "—" if row is base else difference(*row[key], *base[key])[0]
         lines.append(
             f"| {label} | {len(runs)} | "
             f"{pcell(*test, [(r['test']['successes'], r['test']['episodes']) for r in runs])} | "
