@@ -653,6 +653,17 @@ record() {
   evaluate_snapshots
   rescue_and_best
   write_section
+  untracked_records
+}
+
+# Names what `record` wrote that git does not track yet (a snapshot's new
+# evaluations, a rescue point written for the first time): `git commit -a`
+# leaves those out, and the report written from them could not be
+# recomputed from the repository.
+untracked_records() {
+  local new
+  new=$(git -C "$repo" ls-files --others --exclude-standard -- "$records" "$pretrained" 2> /dev/null || true)
+  [ -z "$new" ] || printf 'not yet in git (git add them with the rest):\n%s\n' "$new"
 }
 
 # The reproduction report reads the campaigns' records in the repository
