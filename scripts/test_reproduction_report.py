@@ -36,6 +36,12 @@ assert (close, close_word) == ("-2 pts [-8, +4]", "cannot tell"), (close, close_
 assert (test, word) == ("-5 pts [-11, -0.3]", "contradicted"), (test, word)
 assert [rr.long_runs_final.points(x) for x in (0, 0.003, -0.00004, -0.11)] == ["+0", "+0.3", "-0.004", "-11"]
 
+# An arm whose per-epoch success never reaches 50 % says so with its highest, never "epoch None".
+rows = lambda *rates: [{"epoch": str(e), "success_rate": str(r)} for e, r in enumerate(rates)]
+assert rr.reaching("Dense", rows(0.1, 0.6, 0.7), 0.5) == "Dense first reaches 50 % at epoch 1"
+assert rr.reaching("Dense+FMSR+IS", rows(0.1, 0.24, 0.2), 0.5) == \
+    "Dense+FMSR+IS never reaches 50 % in its 3 epochs (at most 0.24)"
+
 # A campaign whose home was lost: the attempt set aside in lost-<time>/ keeps its snapshots in the report, and the
 # opening table reads the snapshot furthest in training, the lost attempt's until this one passes it.
 import json  # noqa: E402
